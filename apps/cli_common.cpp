@@ -1,0 +1,151 @@
+// Implementation of the apps' shared command-line plumbing (see cli_common.hpp).
+#include "cli_common.hpp"
+
+#include "pcp/error.hpp"
+
+#include <Eigen/Core>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include <omp.h>
+#include <sys/resource.h>
+
+namespace pcp::cli {
+
+namespace {
+std::atomic<bool> g_interrupted{false};
+extern "C" void on_signal(int) { g_interrupted.store(true); }
+}  // namespace
+
+bool interrupted() { return g_interrupted.load(); }
+
+void add_common_options(cxxopts::Options& options) {
+    const CommonFlags defaults;
+    options.add_options("Common")
+        ("h,help", "Print this help")
+        ("threads", "Worker threads (0 = all cores)",
+         cxxopts::value<int>()->default_value(std::to_string(defaults.threads)))
+        ("seed", "Random seed", cxxopts::value<std::uint64_t>()->default_value(std::to_string(defaults.seed)))
+        ("q,quiet", "Print nothing but errors")
+        ("v,verbose", "Print more detail");
+}
+
+bool parse_command_line(cxxopts::Options& options, int argc, char** argv,
+                        cxxopts::ParseResult& result, CommonFlags& common) {
+    try {
+        result = options.parse(argc, argv);
+        if (result.count("help")) {
+            std::cout << options.help() << std::endl;
+            return false;
+        }
+        common.threads = result["threads"].as<int>();
+        common.seed = result["seed"].as<std::uint64_t>();
+        common.quiet = result.count("quiet") > 0;
+        common.verbose = result.count("verbose") > 0;
+    } catch (const cxxopts::exceptions::exception& e) {
+        throw UsageError(e.what());
+    }
+    if (common.threads < 0) throw UsageError("--threads must be >= 0");
+    if (common.quiet && common.verbose) throw UsageError("--quiet and --verbose exclude each other");
+    if (common.threads > 0) {
+        omp_set_num_threads(common.threads);
+        Eigen::setNbThreads(common.threads);
+    }
+    return true;
+}
+
+int run_main(const char* program, const std::function<int()>& body) {
+    try {
+        return body();
+    } catch (const UsageError& e) {
+        std::cerr << program << ": usage error: " << e.what() << " (see --help)" << std::endl;
+        return 2;
+    } catch (const Cancelled& e) {
+        std::cerr << program << ": cancelled: " << e.what() << std::endl;
+        return 130;
+    } catch (const pcp::Error& e) {
+        std::cerr << program << ": error: " << e.what() << std::endl;
+        return 1;
+    } catch (const std::bad_alloc&) {
+        std::cerr << program << ": error: out of memory" << std::endl;
+        return 1;
+    } catch (const std::exception& e) {
+        std::cerr << program << ": error: " << e.what() << std::endl;
+        return 1;
+    }
+}
+
+void Log::info(const std::string& line) const {
+    if (!flags || !flags->quiet) std::cerr << line << std::endl;
+}
+
+void Log::detail(const std::string& line) const {
+    if (flags && flags->verbose) std::cerr << line << std::endl;
+}
+
+void print_parameter_table(const Log& log, const std::vector<std::pair<std::string, std::string>>& rows) {
+    std::size_t w = 9;
+    for (const auto& r : rows) w = std::max(w, r.first.size());
+    std::ostringstream out;
+    out << "| " << std::string("Parameter") << std::string(w - 9, ' ') << " | Value\n";
+    out << "|" << std::string(w + 2, '-') << "|------\n";
+    for (const auto& r : rows) out << "| " << r.first << std::string(w - r.first.size(), ' ') << " | " << r.second << "\n";
+    std::string s = out.str();
+    s.pop_back();
+    log.info(s);
+}
+
+std::string format_duration(double seconds) {
+    if (seconds < 0 || !(seconds < 1e9)) return "?";
+    const long s = static_cast<long>(seconds + 0.5);
+    char buf[64];
+    if (s >= 3600) std::snprintf(buf, sizeof buf, "%ldh%02ldm", s / 3600, (s % 3600) / 60);
+    else if (s >= 60) std::snprintf(buf, sizeof buf, "%ldm%02lds", s / 60, s % 60);
+    else std::snprintf(buf, sizeof buf, "%.1fs", seconds);
+    return buf;
+}
+
+ProgressCallback make_progress_printer(const Log& log, std::int64_t every) {
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+    struct State {
+        std::string stage;
+        std::int64_t last_printed = -1;
+    };
+    auto state = std::make_shared<State>();
+    return [log, every, state](const Progress& p) {
+        if (p.stage != state->stage) {
+            state->stage = p.stage;
+            state->last_printed = -1;
+        }
+        const bool last = p.total > 0 && p.step >= p.total;
+        if (p.step == 0 || last || p.step - state->last_printed >= every) {
+            state->last_printed = p.step;
+            const double rate = p.elapsed_s > 0 ? static_cast<double>(p.step) / p.elapsed_s : 0.0;
+            std::ostringstream line;
+            line << p.stage << " " << p.step;
+            if (p.total > 0) line << "/" << p.total;
+            char buf[96];
+            std::snprintf(buf, sizeof buf, " | loss %.6g | %.1f it/s", p.loss, rate);
+            line << buf;
+            if (p.total > 0 && rate > 0)
+                line << " | ETA " << format_duration(static_cast<double>(p.total - p.step) / rate);
+            log.info(line.str());
+        }
+        return !g_interrupted.load();
+    };
+}
+
+double peak_rss_mib() {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is KiB on Linux
+}
+
+}  // namespace pcp::cli

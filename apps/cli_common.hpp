@@ -1,0 +1,73 @@
+// What the three apps share: the common flags (--threads, --seed, --quiet, --verbose), the
+// error-to-exit-code wrapper around main, the start-up parameter table, a progress printer with
+// rate and ETA that also turns SIGINT/SIGTERM into a clean cancel, and peak-memory reporting.
+// Exit codes: 0 success, 1 runtime error (bad input, failed run), 2 usage error, 130 cancelled.
+#pragma once
+
+#include "pcp/progress.hpp"
+
+#include <cxxopts.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace pcp::cli {
+
+/// Thrown for a bad command line; main exits with code 2.
+class UsageError : public std::runtime_error {
+public:
+    explicit UsageError(const std::string& what) : std::runtime_error(what) {}
+};
+
+/// Thrown when the user interrupted the run (after a checkpoint was written); exit code 130.
+class Cancelled : public std::runtime_error {
+public:
+    explicit Cancelled(const std::string& what) : std::runtime_error(what) {}
+};
+
+struct CommonFlags {
+    int threads = 0;            ///< 0 = all cores
+    std::uint64_t seed = 1;
+    bool quiet = false;
+    bool verbose = false;
+};
+
+/// Adds --help, --threads, --seed, --quiet, --verbose to `options`.
+void add_common_options(cxxopts::Options& options);
+
+/// Parses argv; prints help and returns false for --help; throws UsageError on a bad command line.
+/// Applies the thread count to OpenMP and Eigen.
+bool parse_command_line(cxxopts::Options& options, int argc, char** argv,
+                        cxxopts::ParseResult& result, CommonFlags& common);
+
+/// Runs `body`, mapping exceptions to one line on stderr ("prog: error: ...") and an exit code.
+int run_main(const char* program, const std::function<int()>& body);
+
+/// Logging to stderr that honours --quiet / --verbose.
+struct Log {
+    const CommonFlags* flags = nullptr;
+    void info(const std::string& line) const;
+    void detail(const std::string& line) const;  ///< only with --verbose
+};
+
+/// Prints a "| Parameter | Value |" table to stderr (not with --quiet).
+void print_parameter_table(const Log& log, const std::vector<std::pair<std::string, std::string>>& rows);
+
+/// A ProgressCallback that prints "stage step/total | loss | it/s | ETA" every `every` steps and
+/// returns false once SIGINT or SIGTERM was received (installing the handlers on construction).
+ProgressCallback make_progress_printer(const Log& log, std::int64_t every);
+
+/// True once SIGINT/SIGTERM arrived after make_progress_printer installed its handlers.
+bool interrupted();
+
+/// Peak resident memory of this process in MiB.
+double peak_rss_mib();
+
+/// "1m23s"-style duration.
+std::string format_duration(double seconds);
+
+}  // namespace pcp::cli

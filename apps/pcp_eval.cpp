@@ -1,0 +1,13 @@
+// pcp_eval: command-line entry point (skeleton until its module lands).
+#include "cli_common.hpp"
+
+int main(int argc, char** argv) {
+    return pcp::cli::run_main("pcp_eval", [&] {
+        cxxopts::Options options("pcp_eval", "libpcp");
+        pcp::cli::add_common_options(options);
+        cxxopts::ParseResult args;
+        pcp::cli::CommonFlags common;
+        if (!pcp::cli::parse_command_line(options, argc, argv, args, common)) return 0;
+        return 0;
+    });
+}

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Installs libpcp's build and test dependencies from Debian packages. Idempotent: installs only
+# what is missing, and runs apt-get update only when something is. Run as root (or with sudo).
+set -euo pipefail
+packages=(build-essential cmake ninja-build pkg-config
+          libeigen3-dev libcgal-dev libnanoflann-dev catch2 libcxxopts-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+echo "install-deps: installing ${missing[*]}"
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "install-deps: done"
