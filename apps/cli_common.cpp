@@ -2,13 +2,19 @@
 #include "cli_common.hpp"
 
 #include "pcp/error.hpp"
+#include "pcp/files.hpp"
+#include "pcp/io.hpp"
+#include "pcp/normalize.hpp"
 
 #include <Eigen/Core>
 
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -146,6 +152,54 @@ double peak_rss_mib() {
     rusage usage{};
     getrusage(RUSAGE_SELF, &usage);
     return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is KiB on Linux
+}
+
+PointCloud load_checked_cloud(const std::string& path, Eigen::Index min_points) {
+    PointCloud cloud = read_point_cloud(path);
+    check_point_cloud(cloud.points, path, min_points);
+    return cloud;
+}
+
+std::vector<std::string> collect_inputs(const std::vector<std::string>& args, const std::string& list_file) {
+    namespace fs = std::filesystem;
+    static const char* const kCloudExtensions[] = {".ply", ".xyz", ".txt", ".pts", ".npy"};
+    std::vector<std::string> names = args;
+    if (!list_file.empty()) {
+        std::ifstream in(list_file);
+        PCP_CHECK(in, list_file << ": cannot open the list file");
+        const fs::path base = fs::path(list_file).parent_path();
+        std::string line;
+        while (std::getline(in, line)) {
+            line.erase(0, line.find_first_not_of(" \t\r"));
+            line.erase(line.find_last_not_of(" \t\r") + 1);
+            if (line.empty() || line[0] == '#') continue;
+            const fs::path p(line);
+            names.push_back(p.is_absolute() ? line : (base / p).string());
+        }
+    }
+    std::vector<std::string> files;
+    for (const std::string& name : names) {
+        std::error_code ec;
+        if (fs::is_directory(name, ec)) {
+            std::vector<std::string> found;
+            for (const auto& entry : fs::directory_iterator(name)) {
+                const std::string ext = file_extension(entry.path().string());
+                if (entry.is_regular_file() &&
+                    std::find(std::begin(kCloudExtensions), std::end(kCloudExtensions), ext) != std::end(kCloudExtensions))
+                    found.push_back(entry.path().string());
+            }
+            PCP_CHECK(!found.empty(), name << ": the directory holds no point-cloud files (.ply .xyz .txt .pts .npy)");
+            std::sort(found.begin(), found.end());
+            files.insert(files.end(), found.begin(), found.end());
+        } else {
+            files.push_back(name);
+        }
+    }
+    return files;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace pcp::cli

@@ -5,9 +5,11 @@
 #pragma once
 
 #include "pcp/progress.hpp"
+#include "pcp/types.hpp"
 
 #include <cxxopts.hpp>
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <stdexcept>
@@ -69,5 +71,16 @@ double peak_rss_mib();
 
 /// "1m23s"-style duration.
 std::string format_duration(double seconds);
+
+/// Reads a point cloud and checks it (finite, at least `min_points`, not degenerate); errors name
+/// the file.
+PointCloud load_checked_cloud(const std::string& path, Eigen::Index min_points);
+
+/// The input files named on the command line: files as given, directories expanded to their
+/// point-cloud files (sorted), plus the lines of `list_file` (if not empty; '#' comments allowed).
+std::vector<std::string> collect_inputs(const std::vector<std::string>& args, const std::string& list_file);
+
+/// Seconds since `start`.
+double seconds_since(std::chrono::steady_clock::time_point start);
 
 }  // namespace pcp::cli
