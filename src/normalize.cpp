@@ -60,13 +60,13 @@ void check_point_cloud(const Eigen::Ref<const Points>& points, const std::string
                                 static_cast<double>(n);
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov, Eigen::EigenvaluesOnly);
     const Eigen::Vector3d lambda = eig.eigenvalues();  // ascending
-    // Relative thresholds on variances: 1e-14 ~ a thickness below 1e-7 of the cloud's size,
-    // far above rounding (about 1e-16 relative) and far below any real scan's noise.
+    // Relative thresholds on variances: 1e-10 ~ a thickness below 1e-5 of the cloud's size:
+    // above the rounding of coordinates stored with 6 decimals, below any real scan's noise.
     PCP_CHECK(lambda(2) > 1e-300 && lambda(2) > 1e-20 * mean.squaredNorm(),
               source << ": all points are identical (degenerate bounding box)");
-    PCP_CHECK(lambda(1) > 1e-14 * lambda(2),
+    PCP_CHECK(lambda(1) > 1e-10 * lambda(2),
               source << ": all points lie on a line (degenerate: a surface needs a 3D cloud)");
-    PCP_CHECK(lambda(0) > 1e-14 * lambda(2),
+    PCP_CHECK(lambda(0) > 1e-10 * lambda(2),
               source << ": all points lie in a plane (degenerate: a closed surface needs a 3D cloud)");
 }
 

@@ -1,0 +1,177 @@
+// Bad input through the command-line tools: every case gets a one-line error naming the file and
+// the problem, a non-zero exit code, and leaves no output file behind.
+#include "pcp/io.hpp"
+#include "pcp/shapes.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct RunResult {
+    int exit_code = -1;
+    std::string err;
+};
+
+/// Runs a shell command line, capturing stderr.
+RunResult run(const std::string& command) {
+    const fs::path err_file = fs::path(PCP_TEST_TMP_DIR) / ("cli_err_" + std::to_string(::getpid()) + ".txt");
+    const int status = std::system((command + " > /dev/null 2> '" + err_file.string() + "'").c_str());
+    RunResult r;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    std::ifstream in(err_file);
+    r.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    fs::remove(err_file);
+    return r;
+}
+
+std::string bin(const std::string& app) { return std::string(PCP_BIN_DIR) + "/" + app; }
+
+fs::path case_dir(const std::string& name) {
+    const fs::path dir = fs::path(PCP_TEST_TMP_DIR) / "cli" / name;
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    return dir;
+}
+
+void write_text(const fs::path& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
+
+std::string xyz_lines(const pcp::Points& p) {
+    std::string s;
+    for (Eigen::Index i = 0; i < p.rows(); ++i)
+        s += std::to_string(p(i, 0)) + " " + std::to_string(p(i, 1)) + " " + std::to_string(p(i, 2)) + "\n";
+    return s;
+}
+
+/// Runs pcp_reconstruct INPUT -o OUT and checks the error contract.
+void expect_failure(const fs::path& input, const fs::path& output, const std::string& problem, bool output_is_input = false) {
+    const RunResult r = run(bin("pcp_reconstruct") + " '" + input.string() + "' -o '" + output.string() + "' --threads 1");
+    INFO("stderr: " << r.err);
+    CHECK(r.exit_code == 1);
+    CHECK(r.err.find("pcp_reconstruct: ") == 0);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);  // one line
+    CHECK(r.err.find(problem) != std::string::npos);
+    if (!output_is_input) CHECK(!fs::exists(output));
+}
+
+}  // namespace
+
+TEST_CASE("cli: unreadable, empty and malformed files are named with the problem", "[cli]") {
+    const fs::path dir = case_dir("files");
+    const fs::path out = dir / "out.ply";
+    expect_failure(dir / "missing.ply", out, "missing.ply");
+
+    write_text(dir / "empty.xyz", "");
+    expect_failure(dir / "empty.xyz", out, "empty.xyz");
+
+    // Binary PLY announcing 100 vertices with only 10 present: truncated body.
+    const pcp::PointCloud good = pcp::sample_sphere(100, 1.0, Eigen::Vector3d::Zero(), 1);
+    pcp::write_point_cloud((dir / "full.ply").string(), good);
+    std::ifstream in(dir / "full.ply", std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    write_text(dir / "truncated.ply", bytes.substr(0, bytes.size() - 90 * 3 * 8));
+    expect_failure(dir / "truncated.ply", out, "truncated.ply");
+
+    // Ascii PLY whose header counts exceed the data.
+    write_text(dir / "short.ply", "ply\nformat ascii 1.0\nelement vertex 100\nproperty float x\nproperty float y\n"
+                                  "property float z\nend_header\n" + xyz_lines(good.points.topRows(60)));
+    expect_failure(dir / "short.ply", out, "short.ply");
+
+    write_text(dir / "words.xyz", xyz_lines(good.points.topRows(60)) + "1.0 2.0 abc\n");
+    expect_failure(dir / "words.xyz", out, "words.xyz");
+
+    write_text(dir / "nan.xyz", xyz_lines(good.points.topRows(60)) + "1.0 nan 2.0\n");
+    expect_failure(dir / "nan.xyz", out, "nan.xyz");
+    write_text(dir / "inf.xyz", xyz_lines(good.points.topRows(60)) + "1.0 inf 2.0\n");
+    expect_failure(dir / "inf.xyz", out, "inf.xyz");
+
+    write_text(dir / "cloud.foo", xyz_lines(good.points));
+    expect_failure(dir / "cloud.foo", out, "cloud.foo");
+}
+
+TEST_CASE("cli: too few and degenerate clouds say why", "[cli]") {
+    const fs::path dir = case_dir("degenerate");
+    const fs::path out = dir / "out.ply";
+    const pcp::PointCloud good = pcp::sample_sphere(200, 1.0, Eigen::Vector3d::Zero(), 2);
+    write_text(dir / "few.xyz", xyz_lines(good.points.topRows(20)));
+    expect_failure(dir / "few.xyz", out, "at least 51");
+
+    pcp::Points same = pcp::Points::Constant(100, 3, 1.5);
+    write_text(dir / "same.xyz", xyz_lines(same));
+    expect_failure(dir / "same.xyz", out, "identical");
+
+    pcp::Points line(100, 3), plane(100, 3);
+    for (Eigen::Index i = 0; i < 100; ++i) {
+        line.row(i) << 0.1 * i, 0.2 * i, 1.0;
+        plane.row(i) << good.points(i, 0), good.points(i, 1), 0.5 * good.points(i, 0) + 2.0;
+    }
+    write_text(dir / "line.xyz", xyz_lines(line));
+    expect_failure(dir / "line.xyz", out, "line");
+    write_text(dir / "plane.xyz", xyz_lines(plane));
+    expect_failure(dir / "plane.xyz", out, "plane");
+
+    // Duplicates are fine: the run succeeds.
+    pcp::Points dup = good.points;
+    dup.topRows(100).rowwise() = dup.row(0);
+    write_text(dir / "dup.xyz", xyz_lines(dup));
+    const RunResult r = run(bin("pcp_reconstruct") + " '" + (dir / "dup.xyz").string() + "' --threads 1 -q");
+    CHECK(r.exit_code == 0);
+    CHECK(r.err.empty());
+}
+
+TEST_CASE("cli: bad output paths are refused before any work", "[cli]") {
+    const fs::path dir = case_dir("outputs");
+    const pcp::PointCloud good = pcp::sample_sphere(200, 1.0, Eigen::Vector3d::Zero(), 3);
+    const fs::path input = dir / "in.ply";
+    pcp::write_point_cloud(input.string(), good);
+    const auto input_size = fs::file_size(input);
+
+    expect_failure(input, dir / "no_such_dir" / "out.ply", "does not exist");
+    expect_failure(input, dir / "out.stl", "unknown mesh extension");
+
+    // Output path equal to the input: refused, and the input is untouched.
+    expect_failure(input, dir / "." / "in.ply", "is the input", true);
+    CHECK(fs::exists(input));
+    CHECK(fs::file_size(input) == input_size);
+
+    // A directory that cannot be written: immutable for root, or read-only for a normal user.
+    const fs::path locked = dir / "locked";
+    fs::create_directories(locked);
+    const bool root = ::geteuid() == 0;
+    if (root) {
+        REQUIRE(std::system(("chattr +i '" + locked.string() + "' 2>/dev/null").c_str()) == 0);
+    } else {
+        fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec);
+    }
+    const RunResult r = run(bin("pcp_reconstruct") + " '" + input.string() + "' -o '" + (locked / "out.ply").string() + "'");
+    if (root) std::system(("chattr -i '" + locked.string() + "'").c_str());
+    else fs::permissions(locked, fs::perms::owner_all);
+    INFO("stderr: " << r.err);
+    CHECK(r.exit_code == 1);
+    CHECK(r.err.find("not writable") != std::string::npos);
+    CHECK(!fs::exists(locked / "out.ply"));
+}
+
+TEST_CASE("cli: usage errors exit 2, --help exits 0 and lists defaults", "[cli]") {
+    for (const char* app : {"pcp_train", "pcp_reconstruct", "pcp_eval"}) {
+        const RunResult help = run(bin(app) + " --help");
+        CHECK(help.exit_code == 0);
+        const RunResult bad = run(bin(app) + " --no-such-flag");
+        CHECK(bad.exit_code == 2);
+        CHECK(bad.err.find("usage error") != std::string::npos);
+    }
+    CHECK(run(bin("pcp_reconstruct") + " --threads -3").exit_code == 2);
+    CHECK(run(bin("pcp_eval") + " only_one.ply").exit_code == 2);
+    CHECK(run(bin("pcp_eval") + " a.ply b.ply --protocol famous").exit_code == 2);
+    CHECK(run(bin("pcp_train") + " --grid 0 x.ply").exit_code == 2);
+}
