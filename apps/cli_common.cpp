@@ -133,7 +133,7 @@ ProgressCallback make_progress_printer(const Log& log, std::int64_t every) {
         const bool last = p.total > 0 && p.step >= p.total;
         if (p.step == 0 || last || p.step - state->last_printed >= every) {
             state->last_printed = p.step;
-            const double rate = p.elapsed_s > 0 ? static_cast<double>(p.step) / p.elapsed_s : 0.0;
+            const double rate = p.elapsed_s > 0 ? static_cast<double>(p.step - p.step_offset) / p.elapsed_s : 0.0;
             std::ostringstream line;
             line << p.stage << " " << p.step;
             if (p.total > 0) line << "/" << p.total;

@@ -147,7 +147,7 @@ int main(int argc, char** argv) {
             const std::string name = "F-score @ " + join_thresholds({r.metrics.fscores[i].threshold});
             row(name.c_str(), r.metrics.fscores[i].fscore, floor ? r.floor.fscores[i].fscore : 0.0);
         }
-        if (gt.is_mesh) row("scene error (vertex-GT)", r.scene_error, 0.0);
+        if (gt.is_mesh) row("scene error", r.scene_error, 0.0);
         return 0;
     });
 }

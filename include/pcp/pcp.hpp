@@ -2,7 +2,14 @@
 #pragma once
 
 #include "pcp/error.hpp"
+#include "pcp/eval.hpp"
 #include "pcp/files.hpp"
+#include "pcp/io.hpp"
+#include "pcp/kdtree.hpp"
+#include "pcp/normalize.hpp"
+#include "pcp/regions.hpp"
+#include "pcp/sampling.hpp"
+#include "pcp/shapes.hpp"
 #include "pcp/progress.hpp"
 #include "pcp/types.hpp"
 #include "pcp/version.hpp"

@@ -14,7 +14,8 @@ struct Progress {
     std::int64_t step = 0;      ///< steps done in this stage
     std::int64_t total = 0;     ///< steps planned in this stage (0 if unknown)
     double loss = 0.0;          ///< latest loss, if the stage has one
-    double elapsed_s = 0.0;     ///< wall seconds since the stage started
+    double elapsed_s = 0.0;     ///< wall seconds since the stage started (in this run)
+    std::int64_t step_offset = 0;  ///< steps already done when this run started (resumed runs)
 };
 
 /// Called every so often by long-running calls; return false to cancel.

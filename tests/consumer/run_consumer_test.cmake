@@ -13,4 +13,7 @@ run(${CMAKE_COMMAND} --install "${PCP_BUILD_DIR}" --prefix "${prefix}")
 run(${CMAKE_COMMAND} -S "${PCP_CONSUMER_DIR}" -B "${PCP_WORK_DIR}/build" -G "${PCP_GENERATOR}"
     -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=Release)
 run(${CMAKE_COMMAND} --build "${PCP_WORK_DIR}/build")
-run("${PCP_WORK_DIR}/build/consumer")
+execute_process(COMMAND "${PCP_WORK_DIR}/build/consumer" WORKING_DIRECTORY "${PCP_WORK_DIR}" RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "consumer failed (${rc})")
+endif()
