@@ -1,7 +1,8 @@
 // Sparse SDF grid evaluation (include/pcp/sdf_grid.hpp): choosing the blocks of the narrow band
 // (dense, coarse-to-fine octree, or near the band points), evaluating them in parallel batches
-// through the caller's SdfBatchFn, making samples shared by neighbouring blocks agree, and the
-// growth pass that adds every missing block the zero set crosses into.
+// through the caller's SdfBatchFn (each sample once: a sample shared by stored blocks is evaluated
+// by its owner and copied to the others, so the blocks agree on it bit for bit), and the growth
+// pass that adds every missing block the zero set crosses into.
 //
 // Letters: R = resolution (cells per axis), B = block_cells, S = B + 1 samples per block edge,
 // nb = ceil(R / B) blocks per axis, K = stored blocks. Sample (i, j, k) of block (bx, by, bz) is
@@ -111,27 +112,116 @@ Eigen::VectorXf evaluate_points(const SdfBatchFn& sdf, const PointsF& points, co
     return values;
 }
 
-/// Evaluates the samples of blocks `keys` into out[0 .. keys.size() * S^3): blocks are grouped
-/// into batches of about options.batch_size points, batches run in parallel, and the progress
-/// callback is called between chunks of batches on the calling thread.
-void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, const Layout& L,
-                     const std::vector<std::int64_t>& keys, float* out, const SdfGridOptions& options,
-                     SdfGridStats& stats, std::chrono::steady_clock::time_point start) {
+/// The grid while it is being built: blocks in evaluation order plus a sorted lookup.
+struct Builder {
+    Layout L;
+    std::vector<std::int64_t> keys;
+    std::vector<float> values;
+    std::vector<std::pair<std::int64_t, int>> lookup;  // (key, index), sorted by key
+
+    void rebuild_lookup() {
+        lookup.resize(keys.size());
+        for (std::size_t b = 0; b < keys.size(); ++b) lookup[b] = {keys[b], int(b)};
+        std::sort(lookup.begin(), lookup.end());
+    }
+    int find(int bx, int by, int bz) const {
+        if (bx < 0 || by < 0 || bz < 0 || bx >= L.nb || by >= L.nb || bz >= L.nb) return -1;
+        const std::int64_t k = L.key(bx, by, bz);
+        auto it = std::lower_bound(lookup.begin(), lookup.end(), std::make_pair(k, -1));
+        return (it != lookup.end() && it->first == k) ? it->second : -1;
+    }
+};
+
+/// A sample on a block face is held by up to 8 blocks. Its owner is the first stored block in a
+/// fixed preference order that depends only on the sample (along each axis, the block that starts
+/// at or before it first); every other copy takes the owner's value. Returns the owner's index and
+/// sets O to its coordinates, or returns -2 when global sample g lies inside a single block.
+int sample_owner(const Builder& G, const Eigen::Vector3i& g, Eigen::Vector3i& O) {
+    const Layout& L = G.L;
+    int cand[3][2], count[3];
+    bool shared = false;
+    for (int a = 0; a < 3; ++a) {
+        cand[a][0] = std::min(g[a] / L.B, L.nb - 1);
+        count[a] = 1;
+        if (g[a] % L.B == 0 && g[a] / L.B - 1 >= 0 && g[a] / L.B - 1 != cand[a][0]) cand[a][count[a]++] = g[a] / L.B - 1;
+        shared = shared || count[a] > 1;
+    }
+    if (!shared) return -2;
+    for (int iz = 0; iz < count[2]; ++iz)
+        for (int iy = 0; iy < count[1]; ++iy)
+            for (int ix = 0; ix < count[0]; ++ix) {
+                O = Eigen::Vector3i(cand[0][ix], cand[1][iy], cand[2][iz]);
+                const int owner = G.find(O.x(), O.y(), O.z());
+                if (owner >= 0) return owner;
+            }
+    return -1;
+}
+
+/// Calls visit(i, j, k) for the local samples of block b that b owns (the ones it must evaluate).
+template <class Visit>
+void for_each_owned_sample(const Builder& G, int b, Visit&& visit) {
+    const Layout& L = G.L;
+    const Eigen::Vector3i X = L.coords(G.keys[std::size_t(b)]);
+    const Eigen::Vector3i c(L.cells(X.x()), L.cells(X.y()), L.cells(X.z()));
+    Eigen::Vector3i O;
+    for (int k = 0; k <= c.z(); ++k)
+        for (int j = 0; j <= c.y(); ++j)
+            for (int i = 0; i <= c.x(); ++i) {
+                const int owner = sample_owner(G, X * L.B + Eigen::Vector3i(i, j, k), O);
+                if (owner == -2 || owner == b) visit(i, j, k);
+            }
+}
+
+/// Copies every shared sample's owner value into the other stored copies. The owner's own copy
+/// is never written, so blocks can be processed in parallel.
+void canonicalize(Builder& G) {
+    const Layout& L = G.L;
+#pragma omp parallel for schedule(dynamic, 16)
+    for (std::int64_t b = 0; b < std::int64_t(G.keys.size()); ++b) {
+        const Eigen::Vector3i X = L.coords(G.keys[std::size_t(b)]);
+        const Eigen::Vector3i c(L.cells(X.x()), L.cells(X.y()), L.cells(X.z()));
+        Eigen::Vector3i O;
+        for (int k = 0; k <= c.z(); ++k)
+            for (int j = 0; j <= c.y(); ++j)
+                for (int i = 0; i <= c.x(); ++i) {
+                    const Eigen::Vector3i g = X * L.B + Eigen::Vector3i(i, j, k);
+                    const int owner = sample_owner(G, g, O);
+                    if (owner < 0 || owner == int(b)) continue;
+                    const Eigen::Vector3i lo = g - O * L.B;
+                    G.values[std::size_t(b * L.S3 + L.local_index(i, j, k))] =
+                        G.values[std::size_t(owner * L.S3 + L.local_index(lo.x(), lo.y(), lo.z()))];
+                }
+    }
+}
+
+/// Evaluates the samples that blocks [first, K) of G own (every sample of the block except those
+/// a preferred stored neighbour owns; canonicalize copies those). Blocks are grouped into batches
+/// of about options.batch_size points, batches run in parallel, and the progress callback is
+/// called between chunks of batches on the calling thread. G.lookup must already list the blocks.
+void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, std::size_t first,
+                     const SdfGridOptions& options, SdfGridStats& stats, std::chrono::steady_clock::time_point start) {
+    const Layout& L = G.L;
+    const std::size_t K = G.keys.size();
+    std::vector<std::int64_t> block_samples(K - first);
+#pragma omp parallel for schedule(dynamic, 16)
+    for (std::int64_t b = std::int64_t(first); b < std::int64_t(K); ++b) {
+        std::int64_t n = 0;
+        for_each_owned_sample(G, int(b), [&n](int, int, int) { ++n; });
+        block_samples[std::size_t(b) - first] = n;
+    }
     // Group consecutive blocks up to batch_size samples (at least one block per group).
-    std::vector<std::size_t> group_begin{0};
-    std::vector<std::int64_t> block_samples(keys.size());
+    std::vector<std::size_t> group_begin{first};
     std::int64_t in_group = 0, total = 0;
-    for (std::size_t b = 0; b < keys.size(); ++b) {
-        const Eigen::Vector3i X = L.coords(keys[b]);
-        block_samples[b] = std::int64_t(L.cells(X.x()) + 1) * (L.cells(X.y()) + 1) * (L.cells(X.z()) + 1);
-        if (in_group > 0 && in_group + block_samples[b] > options.batch_size) {
+    for (std::size_t b = first; b < K; ++b) {
+        const std::int64_t n = block_samples[b - first];
+        if (in_group > 0 && in_group + n > options.batch_size) {
             group_begin.push_back(b);
             in_group = 0;
         }
-        in_group += block_samples[b];
-        total += block_samples[b];
+        in_group += n;
+        total += n;
     }
-    group_begin.push_back(keys.size());
+    group_begin.push_back(K);
     const std::int64_t groups = std::int64_t(group_begin.size()) - 1;
     const std::int64_t chunk = 16 * std::max(1, omp_get_max_threads());
 
@@ -147,42 +237,39 @@ void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, const Layout& 
             for (std::int64_t g = c0; g < c1; ++g) {
                 errors.run([&] {
                     std::int64_t n = 0;
-                    for (std::size_t b = group_begin[g]; b < group_begin[g + 1]; ++b) n += block_samples[b];
+                    for (std::size_t b = group_begin[g]; b < group_begin[g + 1]; ++b) n += block_samples[b - first];
                     if (points.rows() < n) {
                         points.resize(n, 3);
                         values.resize(n);
                     }
                     std::int64_t row = 0;
                     for (std::size_t b = group_begin[g]; b < group_begin[g + 1]; ++b) {
-                        const Eigen::Vector3i X = L.coords(keys[b]);
-                        const Eigen::Vector3i c(L.cells(X.x()), L.cells(X.y()), L.cells(X.z()));
-                        for (int k = 0; k <= c.z(); ++k)
-                            for (int j = 0; j <= c.y(); ++j)
-                                for (int i = 0; i <= c.x(); ++i, ++row) {
-                                    points.row(row) = spec.sample_position(std::int64_t(X.x()) * L.B + i,
+                        const Eigen::Vector3i X = L.coords(G.keys[b]);
+                        for_each_owned_sample(G, int(b), [&](int i, int j, int k) {
+                            const Eigen::Vector3d p = spec.sample_position(std::int64_t(X.x()) * L.B + i,
                                                                            std::int64_t(X.y()) * L.B + j,
-                                                                           std::int64_t(X.z()) * L.B + k)
-                                                          .cast<float>()
-                                                          .transpose();
-                                }
+                                                                           std::int64_t(X.z()) * L.B + k);
+                            points(row, 0) = static_cast<float>(p.x());
+                            points(row, 1) = static_cast<float>(p.y());
+                            points(row, 2) = static_cast<float>(p.z());
+                            ++row;
+                        });
                     }
                     sdf(points.topRows(n), values.head(n));
                     check_finite(points.topRows(n), values.head(n));
                     row = 0;
                     for (std::size_t b = group_begin[g]; b < group_begin[g + 1]; ++b) {
-                        const Eigen::Vector3i X = L.coords(keys[b]);
-                        const Eigen::Vector3i c(L.cells(X.x()), L.cells(X.y()), L.cells(X.z()));
-                        float* block = out + std::int64_t(b) * L.S3;
-                        for (int k = 0; k <= c.z(); ++k)
-                            for (int j = 0; j <= c.y(); ++j)
-                                for (int i = 0; i <= c.x(); ++i, ++row) block[L.local_index(i, j, k)] = values[row];
+                        float* block = G.values.data() + std::int64_t(b) * L.S3;
+                        for_each_owned_sample(G, int(b), [&](int i, int j, int k) {
+                            block[L.local_index(i, j, k)] = values[row++];
+                        });
                     }
                 });
             }
         }
         errors.rethrow();
         for (std::int64_t g = c0; g < c1; ++g)
-            for (std::size_t b = group_begin[g]; b < group_begin[g + 1]; ++b) done += block_samples[b];
+            for (std::size_t b = group_begin[g]; b < group_begin[g + 1]; ++b) done += block_samples[b - first];
         report(options, done, total, start);
     }
     stats.evaluations += total;
@@ -274,66 +361,6 @@ std::vector<std::int64_t> near_point_band(const GridSpec& spec, const Layout& L,
     return keys;
 }
 
-/// The grid while it is being built: blocks in evaluation order plus a sorted lookup.
-struct Builder {
-    Layout L;
-    std::vector<std::int64_t> keys;
-    std::vector<float> values;
-    std::vector<std::pair<std::int64_t, int>> lookup;  // (key, index), sorted by key
-
-    void rebuild_lookup() {
-        lookup.resize(keys.size());
-        for (std::size_t b = 0; b < keys.size(); ++b) lookup[b] = {keys[b], int(b)};
-        std::sort(lookup.begin(), lookup.end());
-    }
-    int find(int bx, int by, int bz) const {
-        if (bx < 0 || by < 0 || bz < 0 || bx >= L.nb || by >= L.nb || bz >= L.nb) return -1;
-        const std::int64_t k = L.key(bx, by, bz);
-        auto it = std::lower_bound(lookup.begin(), lookup.end(), std::make_pair(k, -1));
-        return (it != lookup.end() && it->first == k) ? it->second : -1;
-    }
-};
-
-/// Every sample on a block face is held by up to 8 blocks. Its value becomes that of its owner:
-/// the first stored block in a fixed preference order that depends only on the sample (along
-/// each axis, the block that starts at or before it first). The owner's own copy is never written,
-/// so blocks can be processed in parallel.
-void canonicalize(Builder& G) {
-    const Layout& L = G.L;
-#pragma omp parallel for schedule(dynamic, 16)
-    for (std::int64_t b = 0; b < std::int64_t(G.keys.size()); ++b) {
-        const Eigen::Vector3i X = L.coords(G.keys[b]);
-        const Eigen::Vector3i c(L.cells(X.x()), L.cells(X.y()), L.cells(X.z()));
-        for (int k = 0; k <= c.z(); ++k)
-            for (int j = 0; j <= c.y(); ++j)
-                for (int i = 0; i <= c.x(); ++i) {
-                    const Eigen::Vector3i g = X * L.B + Eigen::Vector3i(i, j, k);
-                    int cand[3][2], count[3];
-                    bool shared = false;
-                    for (int a = 0; a < 3; ++a) {
-                        cand[a][0] = std::min(g[a] / L.B, L.nb - 1);
-                        count[a] = 1;
-                        if (g[a] % L.B == 0 && g[a] / L.B - 1 >= 0 && g[a] / L.B - 1 != cand[a][0])
-                            cand[a][count[a]++] = g[a] / L.B - 1;
-                        shared = shared || count[a] > 1;
-                    }
-                    if (!shared) continue;
-                    int owner = -1;
-                    Eigen::Vector3i O;
-                    for (int iz = 0; iz < count[2] && owner < 0; ++iz)
-                        for (int iy = 0; iy < count[1] && owner < 0; ++iy)
-                            for (int ix = 0; ix < count[0] && owner < 0; ++ix) {
-                                O = Eigen::Vector3i(cand[0][ix], cand[1][iy], cand[2][iz]);
-                                owner = G.find(O.x(), O.y(), O.z());
-                            }
-                    if (owner == int(b) || owner < 0) continue;
-                    const Eigen::Vector3i lo = g - O * L.B;
-                    G.values[std::size_t(b * L.S3 + L.local_index(i, j, k))] =
-                        G.values[std::size_t(owner * L.S3 + L.local_index(lo.x(), lo.y(), lo.z()))];
-                }
-    }
-}
-
 /// Blocks not stored that the zero set enters through a face of a stored block: the face's
 /// samples have both signs (value < iso and value >= iso).
 std::vector<std::int64_t> growth_candidates(const Builder& G, double iso) {
@@ -420,8 +447,8 @@ SdfGrid evaluate_impl(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGrid
     }
 
     G.values.assign(G.keys.size() * std::size_t(G.L.S3), std::numeric_limits<float>::quiet_NaN());
-    evaluate_blocks(sdf, spec, G.L, G.keys, G.values.data(), options, grid.stats, start);
     G.rebuild_lookup();
+    evaluate_blocks(sdf, spec, G, 0, options, grid.stats, start);
     canonicalize(G);
 
     while (options.grow) {
@@ -430,8 +457,8 @@ SdfGrid evaluate_impl(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGrid
         const std::size_t old = G.keys.size();
         G.keys.insert(G.keys.end(), added.begin(), added.end());
         G.values.resize(G.keys.size() * std::size_t(G.L.S3), std::numeric_limits<float>::quiet_NaN());
-        evaluate_blocks(sdf, spec, G.L, added, G.values.data() + old * G.L.S3, options, grid.stats, start);
         G.rebuild_lookup();
+        evaluate_blocks(sdf, spec, G, old, options, grid.stats, start);
         canonicalize(G);
         grid.stats.grown_blocks += std::int64_t(added.size());
         ++grid.stats.growth_rounds;
