@@ -123,6 +123,7 @@ TEST_CASE("marching cubes: triangulations cover each polygon with consistent ori
                 for (std::size_t i = 0; i < poly.size(); ++i) polygon_sides[{poly[i], poly[(i + 1) % poly.size()]}] = 0;
             }
             if (mc.num_centres > 0) CHECK(d::mc_ambiguous_faces(config) != 0);
+            if (bits == 0) CHECK(mc.num_centres == 0);  // SeparateInside: one vertex per crossed edge, always
             for (int c = 0; c < mc.num_centres; ++c) {
                 CHECK(polygon_masks.count(mc.centre_edges[std::size_t(c)]) == 1);
                 expected += 2;  // a fan around a centre has k triangles instead of k - 2

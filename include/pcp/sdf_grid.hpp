@@ -76,9 +76,10 @@ struct SdfGridStats {
 
 /// A sparse, block-structured grid of SDF samples. Block (bx, by, bz) covers cells
 /// [b * B, min(b * B + B, resolution)) on each axis (B = block_cells) and stores the samples of
-/// its closed box, (B + 1)^3 floats, x fastest; samples on a face shared with a stored neighbour
-/// hold the same value in both blocks (the value of the block that owns the sample), so the
-/// blocks agree on every sign even if the SDF is not bit-reproducible across batches.
+/// its closed box, (B + 1)^3 floats, x fastest (entries beyond a truncated block's cells are NaN).
+/// A sample on a face shared with a stored neighbour is evaluated once, by the block that owns it,
+/// and copied to the others, so the blocks agree on every sign even if the SDF is not
+/// bit-reproducible across batches, and a dense grid costs exactly (R + 1)^3 evaluations.
 struct SdfGrid {
     GridSpec spec;
     int block_cells = 8;                   ///< B
