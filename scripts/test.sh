@@ -13,7 +13,7 @@ cmake -S "$here" -B "$root/build-test" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPCP
 cmake --build "$root/build-test" -j "$jobs"
 ctest --test-dir "$root/build-test" --output-on-failure -j "$jobs"
 
-cmake -S "$here" -B "$root/build-asan" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPCP_WERROR=ON \
+cmake -S "$here" -B "$root/build-asan" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-O1 -DPCP_WERROR=ON \
       -DPCP_SANITIZE=ON -DPCP_BUILD_BENCH=OFF
 cmake --build "$root/build-asan" -j "$jobs"
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
