@@ -1,0 +1,75 @@
+// Adam, learning-rate schedules and gradient clipping (see pcp/nn/adam.hpp).
+#include "pcp/nn/adam.hpp"
+
+#include "pcp/error.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace pcp::nn {
+
+template <class S>
+void adam_step(VecRef<S> params, const CVecRef<S>& grads, AdamState<S>& st, double lr,
+               const AdamOptions& o) {
+    const Eigen::Index n = params.size();
+    PCP_CHECK(grads.size() == n && st.m.size() == n && st.v.size() == n,
+              "nn::adam_step: sizes differ: params " << n << ", grads " << grads.size()
+                                                     << ", moments " << st.m.size());
+    st.t += 1;
+    const double bc1 = 1.0 - std::pow(o.beta1, double(st.t));
+    const double bc2 = 1.0 - std::pow(o.beta2, double(st.t));
+    // Folded form: p -= step_size * m / (sqrt(v) * inv_sqrt_bc2 + eps).
+    const S b1 = S(o.beta1), b2 = S(o.beta2);
+    const S step_size = S(lr / bc1);
+    const S inv_sqrt_bc2 = S(1.0 / std::sqrt(bc2));
+    const S eps = S(o.eps);
+    S* p = params.data();
+    const S* g = grads.data();
+    S* m = st.m.data();
+    S* v = st.v.data();
+    for (Eigen::Index i = 0; i < n; ++i) {
+        m[i] = b1 * m[i] + (S(1) - b1) * g[i];
+        v[i] = b2 * v[i] + (S(1) - b2) * g[i] * g[i];
+        p[i] -= step_size * m[i] / (std::sqrt(v[i]) * inv_sqrt_bc2 + eps);
+    }
+}
+
+double LrSchedule::at(std::int64_t step) const {
+    PCP_CHECK(step >= 0, "nn::LrSchedule: negative step");
+    if (warmup_steps > 0 && step < warmup_steps) return lr * double(step + 1) / double(warmup_steps);
+    switch (kind) {
+        case Kind::Constant:
+            return lr;
+        case Kind::Cosine: {
+            const double span = double(std::max<std::int64_t>(total_steps - warmup_steps, 1));
+            const double x = std::min(1.0, double(step - warmup_steps) / span);
+            return final_lr + 0.5 * (lr - final_lr) * (1.0 + std::cos(3.14159265358979323846 * x));
+        }
+        case Kind::Step: {
+            PCP_CHECK(step_every > 0, "nn::LrSchedule: step_every must be > 0");
+            return lr * std::pow(step_factor, double((step - warmup_steps) / step_every));
+        }
+    }
+    return lr;
+}
+
+template <class S>
+double clip_grad_norm(std::initializer_list<Vec<S>*> grads, double max_norm) {
+    double sq = 0.0;
+    for (const Vec<S>* g : grads) sq += double(g->squaredNorm());
+    const double norm = std::sqrt(sq);
+    if (max_norm > 0.0 && norm > max_norm) {
+        const S scale = S(max_norm / norm);
+        for (Vec<S>* g : grads) *g *= scale;
+    }
+    return norm;
+}
+
+template void adam_step<float>(VecRef<float>, const CVecRef<float>&, AdamState<float>&, double,
+                               const AdamOptions&);
+template void adam_step<double>(VecRef<double>, const CVecRef<double>&, AdamState<double>&,
+                                double, const AdamOptions&);
+template double clip_grad_norm<float>(std::initializer_list<Vec<float>*>, double);
+template double clip_grad_norm<double>(std::initializer_list<Vec<double>*>, double);
+
+}  // namespace pcp::nn
