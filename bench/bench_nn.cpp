@@ -1,0 +1,142 @@
+// Benchmark of the neural core: steps/s, queries/s and GFLOP/s of the stage-1 and stage-2 training
+// steps at the paper's sizes (H = 512, L = 8, C = 256 and 512; batch 400, 2000, 5000; 1 and 2
+// threads), next to the machine's SGEMM rate measured in the same run (nn::gemm = Eigen float GEMM,
+// 512 x 512 times 512 x N). Prints a Markdown table for docs/BENCHMARKS.md.
+//
+// FLOPs are counted as 2 x the multiply-adds the method needs (what the code computes; skipped work
+// is not counted). Per step, N queries, M = N encoder points, H, L, C, P = 1024 pool width, Hp = 512
+// encoder hidden width:
+//   stage 1, decoder (one shared condition per region):
+//     forward      N (3H + L H^2 + H)                   + C H + H^2   (f-branch, f-half of hidden 1)
+//     input grad   N (L H^2 + 3H)
+//     double bwd   N (2 L H^2 + 6H + (L + 1) H + H)     + 2 H^2 + 2 C H
+//              (tangent L H^2 + weight grads L H^2 per query; branch-a tangent and dW_a 3H each;
+//               D_k lambda for the biases H per layer; dw_o H)
+//   stage 1, encoder: forward M 3P + P Hp + Hp C; backward 2 (P Hp + Hp C) + 3P (sparse pool)
+//   stage 2 (per query):
+//     Q forward    3H + L H^2 + (3 + C) H
+//     F forward    3H + C H + 2H^2 + (L - 1) H^2 + H
+//     F input grad (L - 1) H^2 + 2H^2 + 3H + C H
+//     Q backward   2 (3 + C) H + 2 (L - 1) H^2 + 2 H^2 + 3H
+// Usage: bench_nn [--quick]   (--quick: batch 400 and 2000 only)
+#include "pcp/nn/gemm.hpp"
+#include "pcp/nn/steps.hpp"
+
+#include <Eigen/Core>
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+using namespace pcp::nn;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr int kH = 512, kL = 8, kP = 1024, kHp = 512;
+
+double stage1_flops(double N, double H, double L, double C) {
+    const double M = N;
+    const double fwd = N * (3 * H + L * H * H + H) + C * H + H * H;
+    const double grad = N * (L * H * H + 3 * H);
+    const double dbl = N * (2 * L * H * H + 6 * H + (L + 1) * H + H) + 2 * H * H + 2 * C * H;
+    const double enc = M * 3 * kP + kP * kHp + kHp * C + 2 * (kP * kHp + kHp * C) + 3 * kP;
+    return 2.0 * (fwd + grad + dbl + enc);
+}
+
+double stage2_flops(double N, double H, double L, double C) {
+    const double qf = 3 * H + L * H * H + (3 + C) * H;
+    const double ff = 3 * H + C * H + 2 * H * H + (L - 1) * H * H + H;
+    const double fg = (L - 1) * H * H + 2 * H * H + 3 * H + C * H;
+    const double qb = 2 * (3 + C) * H + 2 * (L - 1) * H * H + 2 * H * H + 3 * H;
+    return 2.0 * N * (qf + ff + fg + qb);
+}
+
+template <class F>
+double seconds_per_call(F&& f, double min_seconds, int min_calls) {
+    f();  // warm-up (first-touch of buffers, Eigen's blocking)
+    int calls = 0;
+    const auto t0 = Clock::now();
+    double el = 0;
+    do {
+        f();
+        ++calls;
+        el = std::chrono::duration<double>(Clock::now() - t0).count();
+    } while (el < min_seconds || calls < min_calls);
+    return el / calls;
+}
+
+Mat<float> randn(int r, int c, Rng& rng, double sd) {
+    Mat<float> m(r, c);
+    for (int j = 0; j < c; ++j)
+        for (int i = 0; i < r; ++i) m(i, j) = float(rng.normal(0.0, sd));
+    return m;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+    const std::vector<int> batches = quick ? std::vector<int>{400, 2000} : std::vector<int>{400, 2000, 5000};
+    const std::vector<int> threads = {1, 2};
+    const std::vector<int> conds = {256, 512};
+
+    // SGEMM reference: C (512 x N) = A (512 x 512) * B (512 x N).
+    std::printf("## SGEMM (nn::gemm, Eigen %d.%d.%d, float)\n\n", EIGEN_WORLD_VERSION,
+                EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION);
+    std::printf("| threads | N | GFLOP/s |\n| --- | --- | --- |\n");
+    double sgemm[3][8] = {};
+    Rng rng(1, 0);
+    for (int t : threads) {
+        Eigen::setNbThreads(t);
+        for (std::size_t b = 0; b < batches.size(); ++b) {
+            const int N = batches[b];
+            Mat<float> A = randn(kH, kH, rng, 0.05), B = randn(kH, N, rng, 1.0), C(kH, N);
+            const double s = seconds_per_call([&] { gemm<float>(C, A, B, 1.0f, 0.0f); }, 0.5, 5);
+            sgemm[t][b] = gemm_flops(kH, N, kH) / s * 1e-9;
+            std::printf("| %d | %d | %.1f |\n", t, N, sgemm[t][b]);
+            std::fflush(stdout);
+        }
+    }
+
+    std::printf("\n## Training steps (H = %d, L = %d, float)\n\n", kH, kL);
+    std::printf("| stage | C | threads | batch N | ms/step | steps/s | queries/s | GFLOP/step | "
+                "GFLOP/s | %% of SGEMM |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+    for (int C : conds) {
+        Rng init(2, std::uint64_t(C));
+        BranchMlp<float> F(decoder_shape(C, kH, kL));
+        init_decoder_geometric(F, init);
+        PointNet<float> E(pointnet_shape(C, kP, kHp));
+        init_pointnet(E, init);
+        BranchMlp<float> Q(query_net_shape(C, kH, kL));
+        init_query_net(Q, init, true);
+        const int nmax = batches.back();
+        Mat<float> pts = randn(3, nmax, rng, 0.3);
+        Mat<float> q = pts + randn(3, nmax, rng, 0.03);
+        Stage1Trainer<float> s1(E, F, nmax, nmax);
+        Stage2Trainer<float> s2(Q, F, nmax);
+        const Mat<float> no_codes;
+        for (int stage : {1, 2}) {
+            for (int t : threads) {
+                Eigen::setNbThreads(t);
+                for (std::size_t b = 0; b < batches.size(); ++b) {
+                    const int N = batches[b];
+                    const auto qb = q.leftCols(N);
+                    const auto tb = pts.leftCols(N);
+                    const double s =
+                        stage == 1 ? seconds_per_call([&] { s1.step(qb, tb, tb); }, 1.0, 2)
+                                   : seconds_per_call([&] { s2.step(qb, tb, no_codes); }, 1.0, 2);
+                    const double fl = stage == 1 ? stage1_flops(N, kH, kL, C) : stage2_flops(N, kH, kL, C);
+                    const double gfs = fl / s * 1e-9;
+                    std::printf("| %d | %d | %d | %d | %.1f | %.2f | %.0f | %.1f | %.1f | %.0f%% |\n",
+                                stage, C, t, N, s * 1e3, 1.0 / s, N / s, fl * 1e-9, gfs,
+                                100.0 * gfs / sgemm[t][b]);
+                    std::fflush(stdout);
+                }
+            }
+        }
+    }
+    return 0;
+}
