@@ -24,6 +24,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -54,18 +55,23 @@ double stage2_flops(double N, double H, double L, double C) {
     return 2.0 * N * (qf + ff + fg + qb);
 }
 
+// Median wall time of one call over at least `min_calls` calls and `min_seconds` (after one
+// warm-up call). The median keeps a burst of load from another process on the shared machine
+// from skewing either the SGEMM reference or the steps.
 template <class F>
 double seconds_per_call(F&& f, double min_seconds, int min_calls) {
-    f();  // warm-up (first-touch of buffers, Eigen's blocking)
-    int calls = 0;
+    f();  // warm-up (first touch of buffers)
+    std::vector<double> times;
     const auto t0 = Clock::now();
-    double el = 0;
     do {
+        const auto a = Clock::now();
         f();
-        ++calls;
-        el = std::chrono::duration<double>(Clock::now() - t0).count();
-    } while (el < min_seconds || calls < min_calls);
-    return el / calls;
+        times.push_back(std::chrono::duration<double>(Clock::now() - a).count());
+    } while (std::chrono::duration<double>(Clock::now() - t0).count() < min_seconds ||
+             int(times.size()) < min_calls);
+    std::sort(times.begin(), times.end());
+    const std::size_t n = times.size();
+    return n % 2 ? times[n / 2] : 0.5 * (times[n / 2 - 1] + times[n / 2]);
 }
 
 Mat<float> randn(int r, int c, Rng& rng, double sd) {
@@ -94,7 +100,7 @@ int main(int argc, char** argv) {
         for (std::size_t b = 0; b < batches.size(); ++b) {
             const int N = batches[b];
             Mat<float> A = randn(kH, kH, rng, 0.05), B = randn(kH, N, rng, 1.0), C(kH, N);
-            const double s = seconds_per_call([&] { gemm<float>(C, A, B, 1.0f, 0.0f); }, 0.5, 5);
+            const double s = seconds_per_call([&] { gemm<float>(C, A, B, 1.0f, 0.0f); }, 1.0, 7);
             sgemm[t][b] = gemm_flops(kH, N, kH) / s * 1e-9;
             std::printf("| %d | %d | %.1f |\n", t, N, sgemm[t][b]);
             std::fflush(stdout);
@@ -126,8 +132,8 @@ int main(int argc, char** argv) {
                     const auto qb = q.leftCols(N);
                     const auto tb = pts.leftCols(N);
                     const double s =
-                        stage == 1 ? seconds_per_call([&] { s1.step(qb, tb, tb); }, 1.0, 2)
-                                   : seconds_per_call([&] { s2.step(qb, tb, no_codes); }, 1.0, 2);
+                        stage == 1 ? seconds_per_call([&] { s1.step(qb, tb, tb); }, 1.5, 3)
+                                   : seconds_per_call([&] { s2.step(qb, tb, no_codes); }, 1.5, 3);
                     const double fl = stage == 1 ? stage1_flops(N, kH, kL, C) : stage2_flops(N, kH, kL, C);
                     const double gfs = fl / s * 1e-9;
                     std::printf("| %d | %d | %d | %d | %.1f | %.2f | %.0f | %.1f | %.1f | %.0f%% |\n",
