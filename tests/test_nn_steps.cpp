@@ -162,10 +162,16 @@ Stage1Run train_sphere_prior(int steps) {
     return run;
 }
 
+// Trained once, shared by the stage-1 and stage-2 tests (keeps the ASan run short).
+const Stage1Run& sphere_prior() {
+    static const Stage1Run run = train_sphere_prior(600);
+    return run;
+}
+
 }  // namespace
 
 TEST_CASE("nn: stage 1 overfits a sphere", "[nn]") {
-    const Stage1Run run = train_sphere_prior(600);
+    const Stage1Run& run = sphere_prior();
     // Measured (600 steps, H = 32, L = 4, C = 16, batch 200, lr 1e-3, 400 sphere points, so the
     // nearest-sample floor is ~0.02): first 20 steps 0.108, last 20 steps 0.0231.
     INFO("stage 1 loss: first 20 steps " << run.first << ", last 20 steps " << run.last);
@@ -174,7 +180,7 @@ TEST_CASE("nn: stage 1 overfits a sphere", "[nn]") {
 }
 
 TEST_CASE("nn: stage 2 fits a torus through a frozen sphere-trained F", "[nn]") {
-    const Stage1Run prior = train_sphere_prior(600);
+    const Stage1Run& prior = sphere_prior();
     Rng rng(32, 0);
     BranchMlp<float> Q(query_net_shape(kC, kH, kL));
     init_query_net(Q, rng, true);
