@@ -1,18 +1,20 @@
-// pcp_reconstruct [INPUT] -o OUT: point cloud -> mesh. Without INPUT it runs on the embedded
-// default shape (a block with sharp edges, a through-hole and a thin fin, sampled with noise).
-// The stages after preprocessing (query-network fitting, SDF grid, marching cubes) land with the
-// reconstruction stage; until then this runs the preprocessing and reports what it found.
+// pcp_reconstruct [INPUT] -o OUT: point cloud -> mesh by PCP. Without INPUT it runs on the
+// embedded default shape (a block with sharp edges, a through-hole and a thin fin, sampled with
+// noise). Without --prior it first learns a self-prior on the input. Progress, checkpoints of the
+// query-network stage (OUT.ckpt, every --checkpoint-every steps and on SIGINT/SIGTERM), --resume,
+// and a final report with times, memory, loss, mesh size and closedness.
 #include "cli_common.hpp"
 
 #include "pcp/error.hpp"
 #include "pcp/files.hpp"
-#include "pcp/kdtree.hpp"
+#include "pcp/io.hpp"
 #include "pcp/normalize.hpp"
-#include "pcp/sampling.hpp"
+#include "pcp/prior.hpp"
+#include "pcp/reconstruct.hpp"
 #include "pcp/shapes.hpp"
 
-#include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <sstream>
 
 namespace {
@@ -28,54 +30,38 @@ std::string fmt(double v) {
     return buf;
 }
 
-std::vector<float> parse_spreads(const std::string& text) {
-    std::vector<float> values;
-    std::stringstream in(text);
-    std::string item;
-    while (std::getline(in, item, ',')) {
-        try {
-            std::size_t used = 0;
-            const float v = std::stof(item, &used);
-            if (used != item.size() || !(v > 0)) throw std::invalid_argument(item);
-            values.push_back(v);
-        } catch (const std::exception&) {
-            throw pcp::cli::UsageError("--spread: '" + item + "' is not a positive number");
-        }
-    }
-    if (values.empty()) throw pcp::cli::UsageError("--spread needs at least one value");
-    return values;
-}
-
-std::string join(const std::vector<float>& values) {
-    std::string s;
-    for (std::size_t i = 0; i < values.size(); ++i) s += (i ? "," : "") + fmt(values[i]);
-    return s;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
     return pcp::cli::run_main("pcp_reconstruct", [&] {
-        const pcp::SamplingOptions sampling_defaults;
+        const pcp::ReconstructOptions d = pcp::ReconstructOptions::preset("default");
         const BuiltinShapeOptions builtin_defaults;
         cxxopts::Options options("pcp_reconstruct",
-                                 "Reconstruct a mesh from an unoriented point cloud (.ply .xyz .txt .pts .npy).\n"
-                                 "Without INPUT, runs on the embedded default shape.");
+                                 "Reconstruct a mesh from an unoriented point cloud (.ply .xyz .txt .pts .npy) with PCP.\n"
+                                 "Without INPUT, runs on the embedded default shape. Option defaults are those of --preset default.");
         options.positional_help("[INPUT]");
         options.add_options()
             ("input", "Point cloud file", cxxopts::value<std::string>())
-            ("o,output", "Output mesh (.ply .obj .off)", cxxopts::value<std::string>()->default_value(""))
-            ("builtin-points", "Points sampled on the embedded default shape",
-             cxxopts::value<long>()->default_value(std::to_string(builtin_defaults.points)))
-            ("builtin-noise", "Noise of the embedded default shape",
-             cxxopts::value<double>()->default_value(fmt(builtin_defaults.noise)));
-        options.add_options("Sampling")
-            ("queries-per-point", "Queries drawn around each point",
-             cxxopts::value<int>()->default_value(std::to_string(sampling_defaults.queries_per_point)))
-            ("sigma-neighbor", "sigma_p = distance to this neighbour",
-             cxxopts::value<int>()->default_value(std::to_string(sampling_defaults.sigma_neighbor)))
-            ("spread", "Query spread factors k (q ~ N(p, (k sigma_p)^2)), comma-separated",
-             cxxopts::value<std::string>()->default_value(join(sampling_defaults.spreads)));
+            ("o,output", "Output mesh (.ply .obj .off)", cxxopts::value<std::string>()->default_value("pcp_mesh.ply"))
+            ("prior", "A prior trained by pcp_train (default: learn a self-prior on the input)", cxxopts::value<std::string>()->default_value(""))
+            ("preset", "paper | default | fast (explicit options below override it)", cxxopts::value<std::string>()->default_value("default"))
+            ("ascii", "Write an ascii .ply")
+            ("resume", "Continue the query-network stage from OUT.ckpt")
+            ("builtin-points", "Points sampled on the embedded default shape", cxxopts::value<long>()->default_value(std::to_string(builtin_defaults.points)))
+            ("builtin-noise", "Noise of the embedded default shape", cxxopts::value<double>()->default_value(fmt(builtin_defaults.noise)));
+        options.add_options("Self-prior (stage 1, when no --prior is given)")
+            ("prior-epochs", "Self-prior epochs (passes over the input's regions)", cxxopts::value<int>()->default_value(std::to_string(d.self_prior.epochs)));
+    options.add_options("Query network (stage 2)")
+            ("steps", "Query-network steps", cxxopts::value<long>()->default_value(std::to_string(d.fit.steps)))
+            ("batch", "Queries per step", cxxopts::value<int>()->default_value(std::to_string(d.fit.queries_per_step)))
+            ("lr", "Learning rate", cxxopts::value<double>()->default_value(fmt(d.fit.learning_rate)))
+            ("width", "Query-network width", cxxopts::value<int>()->default_value(std::to_string(d.fit.width)))
+            ("checkpoint-every", "Steps between checkpoints", cxxopts::value<long>()->default_value(std::to_string(d.fit.checkpoint_every)))
+            ("progress-every", "Steps between progress lines", cxxopts::value<long>()->default_value(std::to_string(d.fit.progress_every)));
+        options.add_options("Meshing")
+            ("resolution", "Marching-cubes cells along the longest axis", cxxopts::value<int>()->default_value(std::to_string(d.resolution)))
+            ("iso", "Iso level", cxxopts::value<double>()->default_value(fmt(d.iso)))
+            ("margin", "Margin around the cloud's unit box", cxxopts::value<double>()->default_value(fmt(d.margin)));
         options.parse_positional({"input"});
         pcp::cli::add_common_options(options);
         cxxopts::ParseResult args;
@@ -83,64 +69,83 @@ int main(int argc, char** argv) {
         if (!pcp::cli::parse_command_line(options, argc, argv, args, common)) return 0;
         const pcp::cli::Log log{&common};
 
-        pcp::SamplingOptions sampling;
-        sampling.queries_per_point = args["queries-per-point"].as<int>();
-        sampling.sigma_neighbor = args["sigma-neighbor"].as<int>();
-        sampling.spreads = parse_spreads(args["spread"].as<std::string>());
-        if (sampling.queries_per_point < 1) throw pcp::cli::UsageError("--queries-per-point must be >= 1");
-        if (sampling.sigma_neighbor < 1) throw pcp::cli::UsageError("--sigma-neighbor must be >= 1");
-        if (args["builtin-points"].as<long>() < pcp::min_points_for(sampling))
-            throw pcp::cli::UsageError("--builtin-points must be >= " + std::to_string(pcp::min_points_for(sampling)));
+        pcp::ReconstructOptions o;
+        try {
+            o = pcp::ReconstructOptions::preset(args["preset"].as<std::string>());
+        } catch (const pcp::Error& e) {
+            throw pcp::cli::UsageError(e.what());
+        }
+        if (args.count("prior-epochs")) o.self_prior.epochs = args["prior-epochs"].as<int>();
+        if (o.self_prior.epochs < 1) throw pcp::cli::UsageError("--prior-epochs must be >= 1");
+        if (args.count("steps")) o.fit.steps = args["steps"].as<long>();
+        if (args.count("batch")) o.fit.queries_per_step = args["batch"].as<int>();
+        if (args.count("lr")) o.fit.learning_rate = args["lr"].as<double>();
+        if (args.count("width")) o.fit.width = args["width"].as<int>();
+        if (args.count("checkpoint-every")) o.fit.checkpoint_every = args["checkpoint-every"].as<long>();
+        if (args.count("progress-every")) o.fit.progress_every = args["progress-every"].as<long>();
+        if (args.count("resolution")) o.resolution = args["resolution"].as<int>();
+        if (args.count("iso")) o.iso = args["iso"].as<double>();
+        if (args.count("margin")) o.margin = args["margin"].as<double>();
+        if (o.fit.steps < 1 || o.fit.queries_per_step < 1 || !(o.fit.learning_rate > 0) || o.fit.width < 1 ||
+            o.fit.progress_every < 1 || o.fit.checkpoint_every < 0)
+            throw pcp::cli::UsageError("steps, batch, width and learning rate must be positive");
+        if (o.resolution < 8 || o.resolution > 2048) throw pcp::cli::UsageError("--resolution must be in [8, 2048]");
+        if (!(o.margin >= 0)) throw pcp::cli::UsageError("--margin must be >= 0");
+        if (args["builtin-points"].as<long>() < pcp::min_points_for(o.fit.sampling))
+            throw pcp::cli::UsageError("--builtin-points must be >= " + std::to_string(pcp::min_points_for(o.fit.sampling)));
+        o.fit.seed = o.self_prior.seed = common.seed;
 
         const bool builtin = !args.count("input");
         const std::string input = builtin ? "<default shape>" : args["input"].as<std::string>();
         const std::string output = args["output"].as<std::string>();
-        if (!output.empty()) {
-            const std::string ext = pcp::file_extension(output);
-            PCP_CHECK(ext == ".ply" || ext == ".obj" || ext == ".off",
-                      output << ": unknown mesh extension '" << ext << "' (use .ply, .obj or .off)");
-            pcp::check_output_path(output, builtin ? std::vector<std::string>{} : std::vector<std::string>{input});
-        }
+        const std::string prior_path = args["prior"].as<std::string>();
+        const std::string ext = pcp::file_extension(output);
+        PCP_CHECK(ext == ".ply" || ext == ".obj" || ext == ".off",
+                  output << ": unknown mesh extension '" << ext << "' (use .ply, .obj or .off)");
+        std::vector<std::string> inputs;
+        if (!builtin) inputs.push_back(input);
+        if (!prior_path.empty()) inputs.push_back(prior_path);
+        pcp::check_output_path(output, inputs);
 
         const auto t_start = std::chrono::steady_clock::now();
         pcp::PointCloud cloud;
         if (builtin) {
             cloud = pcp::sample_default_shape(args["builtin-points"].as<long>(), args["builtin-noise"].as<double>(), common.seed);
-            pcp::check_point_cloud(cloud.points, input, pcp::min_points_for(sampling));
+            pcp::check_point_cloud(cloud.points, input, pcp::min_points_for(o.fit.sampling));
         } else {
-            cloud = pcp::cli::load_checked_cloud(input, pcp::min_points_for(sampling));
+            cloud = pcp::cli::load_checked_cloud(input, pcp::min_points_for(o.fit.sampling));
         }
+        pcp::LocalPrior prior;
+        if (!prior_path.empty()) prior = pcp::load_prior(prior_path);
         const double t_read = pcp::cli::seconds_since(t_start);
-        pcp::cli::print_parameter_table(log, {{"input", input},
-                                              {"output", output.empty() ? "(none)" : output},
-                                              {"points", std::to_string(cloud.points.rows())},
-                                              {"queries per point", std::to_string(sampling.queries_per_point)},
-                                              {"sigma neighbour", std::to_string(sampling.sigma_neighbor)},
-                                              {"spread", join(sampling.spreads)},
+
+        pcp::cli::print_parameter_table(log, {{"input", input + " (" + std::to_string(cloud.points.rows()) + " points)"},
+                                              {"output", output},
+                                              {"prior", prior_path.empty() ? "self-prior (" + std::to_string(o.self_prior.epochs) + " epochs)" : prior_path},
+                                              {"preset", args["preset"].as<std::string>()},
+                                              {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step)},
+                                              {"resolution", std::to_string(o.resolution)},
                                               {"seed", std::to_string(common.seed)}});
-
-        const auto t_prep = std::chrono::steady_clock::now();
-        const pcp::Normalization norm = pcp::fit_unit_box(cloud.points);
-        const pcp::KdTree tree(norm.to_unit(cloud.points));
-        const pcp::QuerySet queries = pcp::sample_queries(tree, sampling, common.seed);
-        const double t_sample = pcp::cli::seconds_since(t_prep);
-
-        Eigen::VectorXf sigma = queries.sigma;
-        std::sort(sigma.data(), sigma.data() + sigma.size());
-        const double mean_offset = (queries.queries - queries.targets).rowwise().norm().mean();
-        const pcp::Aabb box = pcp::bounding_box(cloud.points);
-        std::ostringstream found;
-        found << "preprocessing: " << cloud.points.rows() << " points, bounding box [" << box.min.transpose() << "] - ["
-              << box.max.transpose() << "], unit-box scale " << fmt(norm.scale) << "\n"
-              << "  sigma_p (unit box): min " << fmt(sigma(0)) << ", median " << fmt(sigma(sigma.size() / 2)) << ", max "
-              << fmt(sigma(sigma.size() - 1)) << "\n"
-              << "  " << queries.queries.rows() << " queries, mean distance to target " << fmt(mean_offset)
-              << " (unit box)\n"
-              << "  read " << fmt(t_read) << " s, KD-tree + sampling " << fmt(t_sample) << " s, peak memory "
-              << fmt(pcp::cli::peak_rss_mib()) << " MiB";
-        log.info(found.str());
-        log.info("pcp_reconstruct: this version stops after preprocessing: query-network fitting and meshing "
-                 "are not implemented yet, so no mesh was written");
+        o.progress = pcp::cli::make_progress_printer(log, o.fit.progress_every);
+        o.fit.checkpoint_path = output + ".ckpt";
+        o.fit.resume = args.count("resume") > 0;
+        pcp::ReconstructReport report;
+        const pcp::Mesh mesh = pcp::reconstruct(cloud.points, prior_path.empty() ? nullptr : &prior, o, &report);
+        if (report.cancelled) throw pcp::cli::Cancelled("interrupted; continue the query-network stage with --resume");
+        pcp::MeshWriteOptions wo;
+        wo.ascii = args.count("ascii") > 0;
+        pcp::write_mesh(output, mesh, wo);
+        std::error_code ec;
+        std::filesystem::remove(o.fit.checkpoint_path, ec);
+        std::ostringstream s;
+        s << "wrote " << output << ": " << mesh.vertices.rows() << " vertices, " << mesh.faces.rows() << " faces, "
+          << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "") << "\n"
+          << "| read " << fmt(t_read) << " s | prior " << fmt(report.seconds_prior) << " s (loss " << fmt(report.prior_loss)
+          << ") | query net " << fmt(report.seconds_fit) << " s (" << report.fit_steps << " steps, loss " << fmt(report.fit_loss)
+          << ") | SDF grid " << fmt(report.seconds_grid) << " s (" << report.sdf_evaluations << " evaluations) | marching cubes "
+          << fmt(report.seconds_mesh) << " s | total " << fmt(pcp::cli::seconds_since(t_start)) << " s | peak memory "
+          << fmt(pcp::cli::peak_rss_mib()) << " MiB";
+        log.info(s.str());
         return 0;
     });
 }

@@ -1,35 +1,60 @@
 // pcp_train INPUTS... -o PRIOR: learns the local context prior from a set of point clouds (stage 1
-// of METHOD.md). Inputs are point-cloud files, directories, or a --list file. The training loop
-// lands with the prior-training stage; until then this loads and splits every cloud into regions
-// and reports them (--dry-run), and refuses to pretend to train.
+// of METHOD.md). Inputs are point-cloud files, directories, or a --list file. Progress goes to
+// stderr; checkpoints are written every --checkpoint-every steps and on SIGINT/SIGTERM, and
+// --resume continues an interrupted run exactly.
 #include "cli_common.hpp"
 
 #include "pcp/error.hpp"
 #include "pcp/files.hpp"
 #include "pcp/normalize.hpp"
+#include "pcp/prior.hpp"
 #include "pcp/regions.hpp"
 #include "pcp/sampling.hpp"
 
+#include <cstdio>
+#include <filesystem>
 #include <sstream>
+
+namespace {
+std::string fmt(double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.6g", v);
+    return buf;
+}
+}  // namespace
 
 int main(int argc, char** argv) {
     return pcp::cli::run_main("pcp_train", [&] {
-        const pcp::RegionOptions region_defaults;
-        const pcp::SamplingOptions sampling_defaults;
-        cxxopts::Options options("pcp_train", "Learn a local context prior from point clouds.");
+        const pcp::PriorTrainOptions d = pcp::PriorTrainOptions::preset("default");
+        cxxopts::Options options("pcp_train", "Learn a local context prior from point clouds (stage 1 of PCP).\n"
+                                              "Option defaults are those of --preset default; a preset sets them all.");
         options.positional_help("INPUT...");
         options.add_options()
             ("inputs", "Point-cloud files or directories", cxxopts::value<std::vector<std::string>>())
             ("list", "A file listing inputs, one per line", cxxopts::value<std::string>()->default_value(""))
             ("o,output", "The prior file to write", cxxopts::value<std::string>()->default_value(""))
-            ("dry-run", "Load and split the inputs, report, and stop");
-        options.add_options("Regions")
-            ("grid", "Cells per axis of the region grid (1 = no split)",
-             cxxopts::value<int>()->default_value(std::to_string(region_defaults.grid)))
+            ("preset", "paper | default | fast (explicit options below override it)", cxxopts::value<std::string>()->default_value("default"))
+            ("dry-run", "Load and split the inputs, report, and stop")
+            ("resume", "Continue from the checkpoint (OUTPUT.ckpt) of an interrupted run")
+            ("checkpoint-every", "Steps between checkpoints", cxxopts::value<long>()->default_value(std::to_string(d.checkpoint_every)))
+            ("progress-every", "Steps between progress lines", cxxopts::value<long>()->default_value(std::to_string(d.progress_every)));
+        options.add_options("Regions and queries")
+            ("grid", "Cells per axis of the region grid (1 = no split)", cxxopts::value<int>()->default_value(std::to_string(d.regions.grid)))
             ("normalization", "Per-region normalisation: none, center, scale, both",
-             cxxopts::value<std::string>()->default_value(pcp::to_string(region_defaults.normalization)))
-            ("min-region-points", "Regions with fewer points are skipped",
-             cxxopts::value<long>()->default_value(std::to_string(region_defaults.min_points)));
+             cxxopts::value<std::string>()->default_value(pcp::to_string(d.regions.normalization)))
+            ("min-region-points", "Regions with fewer points are skipped", cxxopts::value<long>()->default_value(std::to_string(d.regions.min_points)))
+            ("queries-per-point", "Queries drawn around each point", cxxopts::value<int>()->default_value(std::to_string(d.sampling.queries_per_point)))
+            ("queries-per-step", "Queries of one region per step", cxxopts::value<int>()->default_value(std::to_string(d.queries_per_step)));
+        options.add_options("Networks and optimisation")
+            ("width", "Decoder width H", cxxopts::value<int>()->default_value(std::to_string(d.network.width)))
+            ("depth", "Decoder hidden layers L", cxxopts::value<int>()->default_value(std::to_string(d.network.depth)))
+            ("condition", "Condition size C", cxxopts::value<int>()->default_value(std::to_string(d.network.condition)))
+            ("epochs", "Passes over all regions", cxxopts::value<int>()->default_value(std::to_string(d.epochs)))
+            ("steps", "Stop after this many steps instead (0 = epochs x regions)", cxxopts::value<long>()->default_value(std::to_string(d.max_steps)))
+            ("lr", "Learning rate", cxxopts::value<double>()->default_value(fmt(d.learning_rate)))
+            ("schedule", "constant | cosine", cxxopts::value<std::string>()->default_value(d.schedule == pcp::LrScheduleKind::Cosine ? "cosine" : "constant"))
+            ("warmup", "Warm-up steps", cxxopts::value<long>()->default_value(std::to_string(d.warmup_steps)))
+            ("clip", "Gradient-norm clipping (0 = off)", cxxopts::value<double>()->default_value(fmt(d.clip_norm)));
         options.parse_positional({"inputs"});
         pcp::cli::add_common_options(options);
         cxxopts::ParseResult args;
@@ -37,17 +62,45 @@ int main(int argc, char** argv) {
         if (!pcp::cli::parse_command_line(options, argc, argv, args, common)) return 0;
         const pcp::cli::Log log{&common};
 
-        pcp::RegionOptions regions;
-        regions.grid = args["grid"].as<int>();
-        regions.min_points = args["min-region-points"].as<long>();
+        pcp::PriorTrainOptions o;
         try {
-            regions.normalization = pcp::parse_region_normalization(args["normalization"].as<std::string>());
+            o = pcp::PriorTrainOptions::preset(args["preset"].as<std::string>());
+            auto set = [&](const char* name, auto& field) {
+                using T = std::decay_t<decltype(field)>;
+                if (args.count(name)) field = static_cast<T>(args[name].as<std::conditional_t<std::is_floating_point_v<T>, double,
+                                                             std::conditional_t<(sizeof(T) > 4), long, int>>>());
+            };
+            set("grid", o.regions.grid);
+            set("min-region-points", o.regions.min_points);
+            set("queries-per-point", o.sampling.queries_per_point);
+            set("queries-per-step", o.queries_per_step);
+            set("width", o.network.width);
+            set("depth", o.network.depth);
+            set("condition", o.network.condition);
+            set("epochs", o.epochs);
+            set("steps", o.max_steps);
+            set("lr", o.learning_rate);
+            set("warmup", o.warmup_steps);
+            set("clip", o.clip_norm);
+            set("checkpoint-every", o.checkpoint_every);
+            set("progress-every", o.progress_every);
+            if (args.count("normalization")) o.regions.normalization = pcp::parse_region_normalization(args["normalization"].as<std::string>());
+            if (args.count("schedule")) {
+                const std::string s = args["schedule"].as<std::string>();
+                if (s != "constant" && s != "cosine") throw pcp::Error("--schedule must be constant or cosine");
+                o.schedule = s == "cosine" ? pcp::LrScheduleKind::Cosine : pcp::LrScheduleKind::Constant;
+            }
         } catch (const pcp::Error& e) {
             throw pcp::cli::UsageError(e.what());
         }
-        if (regions.grid < 1 || regions.grid > 64) throw pcp::cli::UsageError("--grid must be in [1, 64]");
-        if (regions.min_points < pcp::min_points_for(sampling_defaults))
-            throw pcp::cli::UsageError("--min-region-points must be >= " + std::to_string(pcp::min_points_for(sampling_defaults)));
+        if (o.regions.grid < 1 || o.regions.grid > 64) throw pcp::cli::UsageError("--grid must be in [1, 64]");
+        if (o.regions.min_points < pcp::min_points_for(o.sampling))
+            throw pcp::cli::UsageError("--min-region-points must be >= " + std::to_string(pcp::min_points_for(o.sampling)));
+        if (o.queries_per_step < 1 || o.sampling.queries_per_point < 1 || o.network.width < 1 || o.network.depth < 1 ||
+            o.network.condition < 1 || o.epochs < 0 || o.max_steps < 0 || !(o.learning_rate > 0) || o.checkpoint_every < 0 ||
+            o.progress_every < 1)
+            throw pcp::cli::UsageError("sizes, steps and rates must be positive");
+        o.seed = common.seed;
 
         const std::vector<std::string> positional =
             args.count("inputs") ? args["inputs"].as<std::vector<std::string>>() : std::vector<std::string>{};
@@ -60,20 +113,46 @@ int main(int argc, char** argv) {
             pcp::check_output_path(output, inputs);
         }
 
-        long total_regions = 0;
+        const auto t_start = std::chrono::steady_clock::now();
+        std::vector<pcp::TrainingCloud> clouds;
         for (const std::string& path : inputs) {
-            const pcp::PointCloud cloud = pcp::cli::load_checked_cloud(path, pcp::min_points_for(sampling_defaults));
-            const pcp::Normalization norm = pcp::fit_unit_box(cloud.points);
-            const std::vector<pcp::Region> found = pcp::split_into_regions(norm.to_unit(cloud.points), regions);
-            std::ostringstream line;
-            line << path << ": " << cloud.points.rows() << " points, " << found.size() << " regions with >= "
-                 << regions.min_points << " points on a " << regions.grid << "^3 grid";
-            log.info(line.str());
-            total_regions += static_cast<long>(found.size());
+            pcp::TrainingCloud c{path, pcp::cli::load_checked_cloud(path, pcp::min_points_for(o.sampling)).points};
+            if (dry_run) {
+                const std::vector<pcp::Region> found = pcp::split_into_regions(pcp::fit_unit_box(c.points).to_unit(c.points), o.regions);
+                log.info(path + ": " + std::to_string(c.points.rows()) + " points, " + std::to_string(found.size()) +
+                         " regions with >= " + std::to_string(o.regions.min_points) + " points on a " +
+                         std::to_string(o.regions.grid) + "^3 grid");
+            }
+            clouds.push_back(std::move(c));
         }
-        PCP_CHECK(total_regions > 0, "no region of any input has at least " << regions.min_points
-                                         << " points: use a coarser --grid or denser clouds");
+        const double t_read = pcp::cli::seconds_since(t_start);
+
+        const auto t_prep = std::chrono::steady_clock::now();
+        o.checkpoint_path = dry_run ? "" : output + ".ckpt";
+        o.progress = pcp::cli::make_progress_printer(log, o.progress_every);
+        pcp::PriorTrainer trainer(clouds, o);
+        const double t_setup = pcp::cli::seconds_since(t_prep);
+        pcp::cli::print_parameter_table(log, {{"inputs", std::to_string(inputs.size()) + " cloud(s)"},
+                                              {"regions", std::to_string(trainer.num_regions())},
+                                              {"steps", std::to_string(trainer.total_steps())},
+                                              {"settings", trainer.prior().provenance.settings},
+                                              {"output", dry_run ? "(dry run)" : output}});
         if (dry_run) return 0;
-        PCP_FAIL("prior training is not implemented in this version yet (use --dry-run to check inputs)");
+        if (args.count("resume")) {
+            trainer.resume(o.checkpoint_path);
+            log.info("resumed from " + o.checkpoint_path + " at step " + std::to_string(trainer.steps_done()));
+        }
+        const auto t_train = std::chrono::steady_clock::now();
+        const bool finished = trainer.run();
+        const double train_s = pcp::cli::seconds_since(t_train);
+        if (!finished) throw pcp::cli::Cancelled("stopped at step " + std::to_string(trainer.steps_done()) + "; checkpoint " +
+                                                 o.checkpoint_path + " (continue with --resume)");
+        pcp::save_prior(output, trainer.prior());
+        std::error_code ec;
+        std::filesystem::remove(o.checkpoint_path, ec);
+        log.info("wrote " + output + " | read " + fmt(t_read) + " s | regions + queries " + fmt(t_setup) + " s | training " +
+                 fmt(train_s) + " s | final loss " + fmt(trainer.recent_loss()) + " | peak memory " +
+                 fmt(pcp::cli::peak_rss_mib()) + " MiB");
+        return 0;
     });
 }

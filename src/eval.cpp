@@ -195,6 +195,27 @@ EvalResult evaluate(const Mesh& pred, const SurfaceSamples& gt_points, const Eva
     return r;
 }
 
+Eigen::VectorXd winding_numbers(const Mesh& mesh, const Eigen::Ref<const Points>& points) {
+    check_mesh(mesh, "reference");
+    Eigen::VectorXd w(points.rows());
+#pragma omp parallel for schedule(dynamic, 16)
+    for (Eigen::Index i = 0; i < points.rows(); ++i) {
+        const Eigen::Vector3d p = points.row(i).transpose();
+        double total = 0.0;
+        for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
+            const Eigen::Vector3d a = mesh.vertices.row(mesh.faces(f, 0)).transpose() - p;
+            const Eigen::Vector3d b = mesh.vertices.row(mesh.faces(f, 1)).transpose() - p;
+            const Eigen::Vector3d c = mesh.vertices.row(mesh.faces(f, 2)).transpose() - p;
+            const double la = a.norm(), lb = b.norm(), lc = c.norm();
+            const double numerator = a.dot(b.cross(c));
+            const double denominator = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
+            total += 2.0 * std::atan2(numerator, denominator);
+        }
+        w(i) = total / (4.0 * 3.14159265358979323846);
+    }
+    return w;
+}
+
 Eigen::VectorXd point_to_mesh_distance(const Mesh& mesh, const Eigen::Ref<const Points>& points) {
     check_mesh(mesh, "reference");
     return detail::TriangleDistance(mesh).distances(points);

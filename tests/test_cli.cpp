@@ -124,9 +124,13 @@ TEST_CASE("cli: too few and degenerate clouds say why", "[cli]") {
     pcp::Points dup = good.points;
     dup.topRows(100).rowwise() = dup.row(0);
     write_text(dir / "dup.xyz", xyz_lines(dup));
-    const RunResult r = run(bin("pcp_reconstruct") + " '" + (dir / "dup.xyz").string() + "' --threads 1 -q");
+    const fs::path dup_out = dir / "dup_mesh.ply";
+    const RunResult r = run(bin("pcp_reconstruct") + " '" + (dir / "dup.xyz").string() + "' -o '" + dup_out.string() +
+                            "' --preset fast --prior-epochs 3 --steps 100 --batch 500 --width 32 --resolution 24 --threads 1 -q");
+    INFO("stderr: " << r.err);
     CHECK(r.exit_code == 0);
     CHECK(r.err.empty());
+    CHECK(fs::exists(dup_out));
 }
 
 TEST_CASE("cli: bad output paths are refused before any work", "[cli]") {

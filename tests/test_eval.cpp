@@ -92,3 +92,17 @@ TEST_CASE("eval: empty and broken inputs are refused", "[eval]") {
     CHECK_THROWS_WITH(pcp::sample_mesh_surface(flat, 10, 1), Catch::Contains("zero area"));
     CHECK_THROWS_WITH(pcp::parse_eval_protocol("famous"), Catch::Contains("famous"));
 }
+
+TEST_CASE("eval: winding numbers are 1 inside and 0 outside a closed mesh", "[eval]") {
+    const pcp::Mesh sphere = pcp::test::uv_sphere(1.0, 20, 40);
+    pcp::Points p(4, 3);
+    p << 0, 0, 0, 0.5, 0.3, -0.2, 1.5, 0, 0, 0, 3, 1;
+    const Eigen::VectorXd w = pcp::winding_numbers(sphere, p);
+    CHECK(w(0) == Approx(1.0).margin(1e-9));
+    CHECK(w(1) == Approx(1.0).margin(1e-9));
+    CHECK(w(2) == Approx(0.0).margin(1e-9));
+    CHECK(w(3) == Approx(0.0).margin(1e-9));
+    pcp::Mesh inward = sphere;  // flipped orientation: -1 inside
+    inward.faces.col(1).swap(inward.faces.col(2));
+    CHECK(pcp::winding_numbers(inward, p)(0) == Approx(-1.0).margin(1e-9));
+}

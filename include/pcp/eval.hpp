@@ -75,6 +75,11 @@ EvalResult evaluate(const Mesh& pred, const Mesh& gt, const EvalOptions& options
 /// `samples` of them is used if there are more).
 EvalResult evaluate(const Mesh& pred, const SurfaceSamples& gt_points, const EvalOptions& options = {});
 
+/// Generalised winding number of `mesh` at each row of `points` (N x 3): the sum of the signed
+/// solid angles of its triangles / 4 pi (Van Oosterom-Strackee formula). About 1 inside and 0
+/// outside a closed, outward-oriented mesh. O(N x faces), OpenMP-parallel over points.
+Eigen::VectorXd winding_numbers(const Mesh& mesh, const Eigen::Ref<const Points>& points);
+
 /// Distance from each row of `points` (N x 3) to the nearest triangle of `mesh` (exact).
 Eigen::VectorXd point_to_mesh_distance(const Mesh& mesh, const Eigen::Ref<const Points>& points);
 

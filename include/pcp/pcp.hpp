@@ -12,6 +12,8 @@
 #include "pcp/sampling.hpp"
 #include "pcp/sdf_grid.hpp"
 #include "pcp/shapes.hpp"
+#include "pcp/prior.hpp"
 #include "pcp/progress.hpp"
+#include "pcp/reconstruct.hpp"
 #include "pcp/types.hpp"
 #include "pcp/version.hpp"

@@ -90,6 +90,8 @@ std::string serialise(const NetFile<S>& f) {
     const std::size_t payload_start = w.buf.size();
     w.put(f.step);
     for (std::uint64_t s : f.rng) w.put(s);
+    w.put(std::uint64_t(f.metadata.size()));
+    w.put_bytes(f.metadata.data(), f.metadata.size());
     w.put(std::uint32_t(f.nets.size()));
     for (const NetRecord<S>& n : f.nets) {
         w.put(std::uint32_t(n.name.size()));
@@ -121,6 +123,9 @@ NetFile<S> parse(const std::string& path, Reader& r) {
     NetFile<S> f;
     f.step = r.template get<std::uint64_t>("step");
     for (auto& s : f.rng) s = r.template get<std::uint64_t>("RNG state");
+    const auto meta_len = r.template get<std::uint64_t>("metadata length");
+    const char* meta = r.take(static_cast<std::size_t>(meta_len), "metadata");
+    f.metadata.assign(meta, static_cast<std::size_t>(meta_len));
     const auto count = r.template get<std::uint32_t>("network count");
     for (std::uint32_t k = 0; k < count; ++k) {
         NetRecord<S> n;

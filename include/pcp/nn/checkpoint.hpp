@@ -10,7 +10,7 @@
 //   scalar bytes u32      4 (float) or 8 (double): how the parameter blocks are stored
 //   payload size u64      bytes between this field and the checksum
 //   payload:
-//     step u64, rng state 4 x u64, network count u32, then per network:
+//     step u64, rng state 4 x u64, metadata (u64 length + bytes), network count u32, then per network:
 //       name (u32 length + bytes), kind u32 (1 BranchMlp, 2 PointNet),
 //       shape (u32 count + i32 values), parameter count u64, Adam step i64, has-Adam u8,
 //       parameters, [Adam m, Adam v]   (scalars of the stored size)
@@ -48,6 +48,7 @@ template <class S>
 struct NetFile {
     std::uint64_t step = 0;
     Rng::State rng{{1, 0, 0, 0}};
+    std::string metadata;  ///< free text for the caller (e.g. a prior's settings and provenance)
     std::vector<NetRecord<S>> nets;
 
     /// The record called `name`; throws pcp::Error naming the missing network.

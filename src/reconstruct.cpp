@@ -1,0 +1,372 @@
+// Stage 2 (query-network fitting with F frozen) and the meshing pipeline (see pcp/reconstruct.hpp).
+// The fitter samples the global query pool once (seeded), then each step draws queries_per_step of
+// them (seeded per step) and calls nn::Stage2Trainer::step. The SDF for meshing is F_g evaluated
+// by nn::global_sdf_eval with one cache per OpenMP thread. The sign is decided on samples of the
+// grid box's boundary, which lie outside the shape: if most are negative, the field is negated.
+#include "pcp/reconstruct.hpp"
+
+#include "pcp/error.hpp"
+#include "pcp/kdtree.hpp"
+#include "pcp/nn/checkpoint.hpp"
+#include "pcp/marching_cubes.hpp"
+#include "pcp/nn/networks.hpp"
+#include "pcp/nn/steps.hpp"
+#include "pcp/normalize.hpp"
+#include "pcp/rng.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <numeric>
+#include <sstream>
+
+#include <omp.h>
+
+namespace pcp {
+
+using MatF = nn::Mat<float>;
+
+namespace {
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+constexpr int kEvalBatch = 4096;
+}  // namespace
+
+struct QueryNetFitter::Impl {
+    QueryFitOptions options;
+    std::string fingerprint;  ///< input + prior + settings: a checkpoint must match it
+    Normalization norm;
+    PointsF unit;
+    MatF queries, targets;  ///< 3 x M pool
+    std::unique_ptr<nn::Stage2Trainer<float>> trainer;
+    MatF q, t, codes;       ///< batch buffers; codes stays 0 x 0 (one cloud, no shape code)
+    std::deque<double> recent;
+    mutable std::vector<std::unique_ptr<nn::GlobalSdfCache<float>>> caches;  ///< one per thread
+};
+
+QueryNetFitter::QueryNetFitter(const Eigen::Ref<const Points>& points, const LocalPrior& prior,
+                               const QueryFitOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+    Impl& m = *impl_;
+    m.options = options;
+    PCP_CHECK(options.queries_per_step >= 1, "query fitting: queries_per_step must be >= 1");
+    PCP_CHECK(options.width >= 1 && options.depth >= 1, "query fitting: network sizes must be >= 1");
+    check_point_cloud(points, "input cloud", min_points_for(options.sampling));
+    m.norm = fit_unit_box(points);
+    m.unit = m.norm.to_unit(points);
+    {
+        const KdTree tree(m.unit);
+        const QuerySet set = sample_queries(tree, options.sampling, options.seed);
+        m.queries = set.queries.transpose();
+        m.targets = set.targets.transpose();
+    }
+    nn::BranchMlp<float> query_net(nn::query_net_shape(prior.network.condition, options.width, options.depth));
+    nn::Rng rng(options.seed, 202);
+    nn::init_query_net(query_net, rng, options.zero_shift_init);
+    nn::OptimOptions optim;
+    optim.lr.lr = options.learning_rate;
+    if (options.schedule == LrScheduleKind::Cosine) {
+        optim.lr.kind = nn::LrSchedule::Kind::Cosine;
+        optim.lr.total_steps = options.steps;
+        optim.lr.final_lr = 0.02 * options.learning_rate;
+    }
+    optim.lr.warmup_steps = options.warmup_steps;
+    optim.clip_norm = options.clip_norm;
+    m.trainer = std::make_unique<nn::Stage2Trainer<float>>(query_net, prior.decoder(), options.queries_per_step, optim);
+    {
+        std::ostringstream fp;
+        fp << "width=" << options.width << " depth=" << options.depth << " batch=" << options.queries_per_step
+           << " steps=" << options.steps << " lr=" << options.learning_rate << " schedule=" << static_cast<int>(options.schedule)
+           << " warmup=" << options.warmup_steps << " clip=" << options.clip_norm << " seed=" << options.seed
+           << " qpp=" << options.sampling.queries_per_point << " points=" << points.rows() << std::hex
+           << " data=" << nn::fnv1a64(m.unit.data(), static_cast<std::size_t>(m.unit.size()) * sizeof(float))
+           << " prior=" << nn::fnv1a64(prior.decoder().params.data(), static_cast<std::size_t>(prior.decoder().params.size()) * sizeof(float));
+        m.fingerprint = fp.str();
+    }
+    m.q.resize(3, options.queries_per_step);
+    m.t.resize(3, options.queries_per_step);
+}
+
+QueryNetFitter::~QueryNetFitter() = default;
+
+std::int64_t QueryNetFitter::steps_done() const { return impl_->trainer->steps; }
+const Normalization& QueryNetFitter::normalization() const { return impl_->norm; }
+const PointsF& QueryNetFitter::unit_points() const { return impl_->unit; }
+
+double QueryNetFitter::recent_loss() const {
+    if (impl_->recent.empty()) return 0.0;
+    return std::accumulate(impl_->recent.begin(), impl_->recent.end(), 0.0) / static_cast<double>(impl_->recent.size());
+}
+
+double QueryNetFitter::step() {
+    Impl& m = *impl_;
+    const std::int64_t s = m.trainer->steps;
+    Rng rng(m.options.seed ^ 0x5EED0003ull, static_cast<std::uint64_t>(s));
+    const auto available = static_cast<std::uint64_t>(m.queries.cols());
+    for (int i = 0; i < m.options.queries_per_step; ++i) {
+        const auto j = static_cast<Eigen::Index>(rng.below(available));
+        m.q.col(i) = m.queries.col(j);
+        m.t.col(i) = m.targets.col(j);
+    }
+    const double loss = m.trainer->step(m.q, m.t, m.codes);
+    PCP_CHECK(std::isfinite(loss), "query fitting: the loss became " << loss << " at step " << s
+                                       << "; lower the learning rate or enable gradient clipping");
+    m.recent.push_back(loss);
+    if (m.recent.size() > 100) m.recent.pop_front();
+    return loss;
+}
+
+bool QueryNetFitter::run() {
+    Impl& m = *impl_;
+    const auto start = std::chrono::steady_clock::now();
+    const std::int64_t first = steps_done();
+    auto report = [&]() {
+        if (!m.options.progress) return true;
+        Progress p;
+        p.stage = "query-net";
+        p.step = steps_done();
+        p.total = m.options.steps;
+        p.loss = recent_loss();
+        p.elapsed_s = seconds_since(start);
+        p.step_offset = first;
+        return m.options.progress(p);
+    };
+    if (!report()) return false;
+    while (steps_done() < m.options.steps) {
+        step();
+        const std::int64_t done = steps_done();
+        if (!m.options.checkpoint_path.empty() && m.options.checkpoint_every > 0 && done % m.options.checkpoint_every == 0)
+            checkpoint(m.options.checkpoint_path);
+        if (done % std::max<std::int64_t>(1, m.options.progress_every) == 0 || done == m.options.steps) {
+            if (!report()) {
+                if (!m.options.checkpoint_path.empty()) checkpoint(m.options.checkpoint_path);
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
+void QueryNetFitter::sdf(const Eigen::Ref<const PointsF>& unit_points, Eigen::Ref<Eigen::VectorXf> values) const {
+    const Impl& m = *impl_;
+    PCP_CHECK(values.size() == unit_points.rows(), "query net sdf: size mismatch");
+    const int threads = omp_get_max_threads();
+    if (static_cast<int>(m.caches.size()) < threads) {
+#pragma omp critical(pcp_sdf_caches)
+        while (static_cast<int>(m.caches.size()) < threads)
+            m.caches.push_back(std::make_unique<nn::GlobalSdfCache<float>>(m.trainer->query_net.shape,
+                                                                             m.trainer->decoder.shape, kEvalBatch));
+    }
+    const Eigen::Index n = unit_points.rows();
+    const Eigen::Index batches = (n + kEvalBatch - 1) / kEvalBatch;
+    const MatF none;
+    auto run_batch = [&](Eigen::Index b, nn::GlobalSdfCache<float>& cache) {
+        const Eigen::Index start = b * kEvalBatch, len = std::min<Eigen::Index>(kEvalBatch, n - start);
+        const MatF q = unit_points.middleRows(start, len).transpose();
+        values.segment(start, len) = nn::global_sdf_eval<float>(m.trainer->query_net, m.trainer->decoder, q, none, cache).transpose();
+    };
+    if (omp_in_parallel() || batches == 1) {  // called from a parallel region: stay on this thread
+        const int tid = omp_get_thread_num();
+        for (Eigen::Index b = 0; b < batches; ++b) run_batch(b, *m.caches[static_cast<std::size_t>(tid)]);
+    } else {
+#pragma omp parallel for schedule(dynamic, 1)
+        for (Eigen::Index b = 0; b < batches; ++b) run_batch(b, *m.caches[static_cast<std::size_t>(omp_get_thread_num())]);
+    }
+}
+
+// ---- checkpoints ------------------------------------------------------------------------------
+
+namespace {
+constexpr const char* kFitCheckpointFormat = "pcp-query-net-checkpoint 1";
+}  // namespace
+
+void QueryNetFitter::checkpoint(const std::string& path) const {
+    const Impl& m = *impl_;
+    nn::NetFile<float> file;
+    file.step = static_cast<std::uint64_t>(m.trainer->steps);
+    file.metadata = std::string("format=") + kFitCheckpointFormat + "\nfingerprint=" + m.fingerprint + "\n";
+    file.nets.push_back(nn::make_record("query_net", m.trainer->query_net, &m.trainer->adam_query));
+    nn::save_net_file(path, file);
+}
+
+void QueryNetFitter::resume(const std::string& path) {
+    Impl& m = *impl_;
+    const nn::NetFile<float> file = nn::load_net_file<float>(path);
+    PCP_CHECK(file.metadata.rfind(std::string("format=") + kFitCheckpointFormat + "\n", 0) == 0,
+              path << ": not a query-network checkpoint of this version");
+    PCP_CHECK(file.metadata.find("fingerprint=" + m.fingerprint + "\n") != std::string::npos,
+              path << ": the checkpoint was written for another input, prior or settings; run without --resume to start again");
+    const nn::NetRecord<float>& rec = file.get("query_net");
+    PCP_CHECK(rec.has_adam, path << ": the checkpoint holds no optimiser state");
+    m.trainer->query_net = nn::to_branch_mlp(rec);
+    m.trainer->adam_query = rec.adam;
+    m.trainer->steps = static_cast<std::int64_t>(file.step);
+    m.recent.clear();
+}
+
+// ---- reconstruct ------------------------------------------------------------------------------
+
+ReconstructOptions ReconstructOptions::preset(const std::string& name) {
+    ReconstructOptions o;
+    if (name == "paper") {
+        o.self_prior = PriorTrainOptions::preset("paper");
+        return o;
+    }
+    if (name == "default") {
+        o.self_prior = PriorTrainOptions::preset("default");
+        o.fit.width = 256;
+        o.fit.queries_per_step = 2000;
+        o.fit.steps = 6000;
+        o.fit.learning_rate = 5e-4;
+        o.fit.schedule = LrScheduleKind::Cosine;
+        o.fit.warmup_steps = 200;
+        return o;
+    }
+    if (name == "fast") {
+        o.self_prior = PriorTrainOptions::preset("fast");
+        o.fit.width = 128;
+        o.fit.depth = 6;
+        o.fit.queries_per_step = 2000;
+        o.fit.steps = 1500;
+        o.fit.learning_rate = 1e-3;
+        o.fit.schedule = LrScheduleKind::Cosine;
+        o.fit.warmup_steps = 100;
+        o.resolution = 96;
+        return o;
+    }
+    PCP_FAIL("unknown reconstruction preset '" << name << "' (use paper, default or fast)");
+}
+
+bool is_closed_and_oriented(const Mesh& mesh) {
+    if (mesh.faces.rows() == 0) return false;
+    std::map<std::pair<std::int32_t, std::int32_t>, int> directed;
+    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+        for (int e = 0; e < 3; ++e) {
+            const std::int32_t a = mesh.faces(f, e), b = mesh.faces(f, (e + 1) % 3);
+            if (++directed[{a, b}] > 1) return false;
+        }
+    for (const auto& [edge, count] : directed)
+        if (!directed.count({edge.second, edge.first})) return false;
+    return true;
+}
+
+namespace {
+
+/// Samples on the faces of `box` (all outside the shape): used to tell outside from inside.
+PointsF box_boundary_samples(const Aabb& box, int per_axis) {
+    std::vector<Eigen::RowVector3f> s;
+    for (int axis = 0; axis < 3; ++axis)
+        for (int side = 0; side < 2; ++side)
+            for (int i = 0; i < per_axis; ++i)
+                for (int j = 0; j < per_axis; ++j) {
+                    Eigen::Vector3d p;
+                    const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+                    p(axis) = side ? box.max(axis) : box.min(axis);
+                    p(a) = box.min(a) + (i + 0.5) / per_axis * box.extent()(a);
+                    p(b) = box.min(b) + (j + 0.5) / per_axis * box.extent()(b);
+                    s.emplace_back(p.cast<float>().transpose());
+                }
+    PointsF out(static_cast<Eigen::Index>(s.size()), 3);
+    for (std::size_t i = 0; i < s.size(); ++i) out.row(static_cast<Eigen::Index>(i)) = s[i];
+    return out;
+}
+
+ProgressCallback chain(const ProgressCallback& a, const ProgressCallback& b) {
+    if (!a) return b;
+    if (!b) return a;
+    return [a, b](const Progress& p) { return a(p) && b(p); };
+}
+
+}  // namespace
+
+Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior, const ReconstructOptions& options,
+                 ReconstructReport* report) {
+    ReconstructReport local;
+    ReconstructReport& r = report ? *report : local;
+    r = ReconstructReport{};
+    check_point_cloud(points, "input cloud", min_points_for(options.fit.sampling));
+
+    auto t0 = std::chrono::steady_clock::now();
+    LocalPrior self_prior;
+    // With checkpoints on, a self-prior is kept beside the query-net checkpoint so that --resume
+    // does not train it again.
+    const std::string prior_ckpt = options.fit.checkpoint_path.empty() ? "" : options.fit.checkpoint_path + ".prior";
+    if (!prior && options.fit.resume && !prior_ckpt.empty() && std::filesystem::exists(prior_ckpt)) {
+        self_prior = load_prior(prior_ckpt);
+        prior = &self_prior;
+    }
+    if (!prior) {
+        PriorTrainOptions po = options.self_prior;
+        po.progress = chain(po.progress, options.progress);
+        PriorTrainer trainer({TrainingCloud{"input cloud", Points(points)}}, po);
+        if (!trainer.run()) {
+            r.cancelled = true;
+            return Mesh{};
+        }
+        self_prior = trainer.prior();
+        prior = &self_prior;
+        r.prior_loss = trainer.recent_loss();
+        if (!prior_ckpt.empty()) save_prior(prior_ckpt, self_prior);
+    }
+    r.seconds_prior = seconds_since(t0);
+
+    t0 = std::chrono::steady_clock::now();
+    QueryFitOptions fo = options.fit;
+    fo.progress = chain(fo.progress, options.progress);
+    QueryNetFitter fitter(points, *prior, fo);
+    if (fo.resume && !fo.checkpoint_path.empty() && std::filesystem::exists(fo.checkpoint_path)) fitter.resume(fo.checkpoint_path);
+    if (!fitter.run()) {
+        r.cancelled = true;
+        return Mesh{};
+    }
+    r.fit_loss = fitter.recent_loss();
+    r.fit_steps = fitter.steps_done();
+    r.seconds_fit = seconds_since(t0);
+
+    t0 = std::chrono::steady_clock::now();
+    const GridSpec spec = make_grid_spec(bounding_box(fitter.unit_points().cast<double>()), options.resolution, options.margin);
+    // Outside is positive: decide on the grid box's boundary, which encloses the whole cloud.
+    const PointsF boundary = box_boundary_samples(spec.box, 12);
+    Eigen::VectorXf bvals(boundary.rows());
+    fitter.sdf(boundary, bvals);
+    r.sign_flipped = (bvals.array() < static_cast<float>(options.iso)).count() * 2 > bvals.size();
+    const float sign = r.sign_flipped ? -1.0f : 1.0f;
+    // The grid box is the cloud's box plus a margin, so its faces are outside the shape: the field
+    // is clamped to be positive there, which closes any sheet that would leave the box.
+    const Eigen::Array3f lo = spec.box.min.cast<float>().array(), hi = spec.box.max.cast<float>().array();
+    const Eigen::Array3f tol = (spec.spacing() * 1e-3).cast<float>().array();
+    const float outside = static_cast<float>(options.iso + 1e-3 * spec.spacing().minCoeff());
+    const SdfBatchFn field = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
+        fitter.sdf(q, v);
+        if (sign < 0) v = -v;
+        for (Eigen::Index i = 0; i < q.rows(); ++i) {
+            const Eigen::Array3f p = q.row(i).transpose().array();
+            if (((p - lo).abs() <= tol).any() || ((p - hi).abs() <= tol).any()) v(i) = std::max(v(i), outside);
+        }
+    };
+    SdfGridOptions go = options.grid;
+    go.iso = options.iso;
+    go.progress = chain(go.progress, options.progress);
+    const SdfGrid grid = go.band == NarrowBand::NearPoints ? evaluate_sdf_grid(field, spec, go, fitter.unit_points())
+                                                           : evaluate_sdf_grid(field, spec, go);
+    r.sdf_evaluations = grid.stats.evaluations;
+    r.seconds_grid = seconds_since(t0);
+
+    t0 = std::chrono::steady_clock::now();
+    MarchingCubesOptions mo;
+    mo.iso = options.iso;
+    const Mesh unit_mesh = marching_cubes(grid, mo);
+    PCP_CHECK(unit_mesh.faces.rows() > 0, "reconstruction produced an empty mesh: the fitted SDF has no zero crossing "
+                                          "in the grid (train longer, or check the input)");
+    Mesh mesh = fitter.normalization().from_unit(unit_mesh);
+    r.closed = is_closed_and_oriented(mesh);
+    r.seconds_mesh = seconds_since(t0);
+    std::error_code ignored;
+    if (!prior_ckpt.empty()) std::filesystem::remove(prior_ckpt, ignored);
+    return mesh;
+}
+
+}  // namespace pcp

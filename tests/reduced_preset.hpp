@@ -1,0 +1,24 @@
+// The reduced reconstruction preset of the e2e and realdata tests: small networks and short
+// schedules so that each reconstruction takes well under a minute on 2 cores in CI.
+#pragma once
+
+#include "pcp/reconstruct.hpp"
+
+namespace pcp::test {
+
+inline ReconstructOptions reduced_preset() {
+    ReconstructOptions o = ReconstructOptions::preset("fast");
+    o.self_prior.network.width = 64;
+    o.self_prior.network.depth = 4;
+    o.self_prior.network.condition = 64;
+    o.self_prior.network.pointnet_width = 64;
+    o.self_prior.network.pointnet_hidden = 64;
+    o.self_prior.epochs = 10;
+    o.fit.width = 64;
+    o.fit.depth = 4;
+    o.fit.steps = 800;
+    o.resolution = 64;
+    return o;
+}
+
+}  // namespace pcp::test
