@@ -6,6 +6,7 @@
 // PointNet input (paper section 3: "regard their nearest neighbors ... as the input to PointNet").
 #include "pcp/prior.hpp"
 
+#include "detail/step_loop.hpp"
 #include "pcp/error.hpp"
 #include "pcp/kdtree.hpp"
 #include "pcp/nn/checkpoint.hpp"
@@ -316,34 +317,9 @@ void PriorTrainer::resume(const std::string& path) {
 }
 
 bool PriorTrainer::run() {
-    Impl& m = *impl_;
-    const auto start = std::chrono::steady_clock::now();
-    const std::int64_t first = steps_done();
-    auto report = [&](double loss) {
-        if (!m.options.progress) return true;
-        Progress p;
-        p.stage = "prior";
-        p.step = steps_done();
-        p.total = m.total;
-        p.loss = loss;
-        p.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        p.step_offset = first;
-        return m.options.progress(p);
-    };
-    if (!report(recent_loss())) return false;
-    while (steps_done() < m.total) {
-        step();
-        const std::int64_t done = steps_done();
-        if (!m.options.checkpoint_path.empty() && m.options.checkpoint_every > 0 && done % m.options.checkpoint_every == 0)
-            checkpoint(m.options.checkpoint_path);
-        if (done % std::max<std::int64_t>(1, m.options.progress_every) == 0 || done == m.total) {
-            if (!report(recent_loss())) {
-                if (!m.options.checkpoint_path.empty()) checkpoint(m.options.checkpoint_path);
-                return false;
-            }
-        }
-    }
-    return true;
+    const Impl& m = *impl_;
+    return detail::run_step_loop(*this, {"prior", m.total, m.options.progress_every, m.options.checkpoint_every,
+                                         m.options.checkpoint_path, m.options.progress});
 }
 
 LocalPrior PriorTrainer::prior() const {

@@ -5,6 +5,7 @@
 // grid box's boundary, which lie outside the shape: if most are negative, the field is negated.
 #include "pcp/reconstruct.hpp"
 
+#include "detail/step_loop.hpp"
 #include "pcp/error.hpp"
 #include "pcp/kdtree.hpp"
 #include "pcp/nn/checkpoint.hpp"
@@ -120,34 +121,9 @@ double QueryNetFitter::step() {
 }
 
 bool QueryNetFitter::run() {
-    Impl& m = *impl_;
-    const auto start = std::chrono::steady_clock::now();
-    const std::int64_t first = steps_done();
-    auto report = [&]() {
-        if (!m.options.progress) return true;
-        Progress p;
-        p.stage = "query-net";
-        p.step = steps_done();
-        p.total = m.options.steps;
-        p.loss = recent_loss();
-        p.elapsed_s = seconds_since(start);
-        p.step_offset = first;
-        return m.options.progress(p);
-    };
-    if (!report()) return false;
-    while (steps_done() < m.options.steps) {
-        step();
-        const std::int64_t done = steps_done();
-        if (!m.options.checkpoint_path.empty() && m.options.checkpoint_every > 0 && done % m.options.checkpoint_every == 0)
-            checkpoint(m.options.checkpoint_path);
-        if (done % std::max<std::int64_t>(1, m.options.progress_every) == 0 || done == m.options.steps) {
-            if (!report()) {
-                if (!m.options.checkpoint_path.empty()) checkpoint(m.options.checkpoint_path);
-                return false;
-            }
-        }
-    }
-    return true;
+    const Impl& m = *impl_;
+    return detail::run_step_loop(*this, {"query-net", m.options.steps, m.options.progress_every, m.options.checkpoint_every,
+                                         m.options.checkpoint_path, m.options.progress});
 }
 
 void QueryNetFitter::sdf(const Eigen::Ref<const PointsF>& unit_points, Eigen::Ref<Eigen::VectorXf> values) const {

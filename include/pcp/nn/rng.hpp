@@ -1,39 +1,11 @@
-// The neural core's random numbers: a small seeded generator (xoshiro256** seeded through
-// splitmix64, normals by Box-Muller) whose streams derive from (seed, stream id), never from a
-// thread id or the clock. Its whole state is four 64-bit words, saved in checkpoints.
+// The neural core uses libpcp's one generator (pcp/rng.hpp); this header keeps the nn:: names.
 #pragma once
 
-#include <array>
-#include <cstdint>
+#include "pcp/rng.hpp"
 
 namespace pcp::nn {
 
-class Rng {
-public:
-    using State = std::array<std::uint64_t, 4>;
-
-    /// Stream `stream` of seed `seed`: different (seed, stream) pairs give independent-looking
-    /// sequences; the same pair always gives the same sequence.
-    explicit Rng(std::uint64_t seed = 0, std::uint64_t stream = 0);
-
-    std::uint64_t next_u64();
-    /// Uniform in [0, 1), 53 random bits.
-    double uniform();
-    /// Standard normal (Box-Muller; one value per call, no cached spare, so the state is the
-    /// four words only).
-    double normal();
-    double normal(double mean, double stddev) { return mean + stddev * normal(); }
-    /// Uniform integer in [0, n), n >= 1.
-    std::uint64_t below(std::uint64_t n);
-
-    State state() const { return s_; }
-    void set_state(const State& s);
-
-private:
-    State s_;
-};
-
-/// One splitmix64 step (the mixing function used for seeding).
-std::uint64_t splitmix64(std::uint64_t& x);
+using Rng = pcp::Rng;
+using pcp::splitmix64;
 
 }  // namespace pcp::nn

@@ -1,12 +1,12 @@
-// xoshiro256** with splitmix64 seeding, and Box-Muller normals (see pcp/nn/rng.hpp). Written from
+// xoshiro256** with splitmix64 seeding, and Box-Muller normals (see pcp/rng.hpp). Written from
 // the published algorithm descriptions (Blackman & Vigna; Steele et al.).
-#include "pcp/nn/rng.hpp"
+#include "pcp/rng.hpp"
 
 #include "pcp/error.hpp"
 
 #include <cmath>
 
-namespace pcp::nn {
+namespace pcp {
 
 std::uint64_t splitmix64(std::uint64_t& x) {
     x += 0x9E3779B97F4A7C15ull;
@@ -30,7 +30,7 @@ Rng::Rng(std::uint64_t seed, std::uint64_t stream) {
 }
 
 void Rng::set_state(const State& s) {
-    PCP_CHECK((s[0] | s[1] | s[2] | s[3]) != 0, "nn::Rng: the all-zero state is invalid");
+    PCP_CHECK((s[0] | s[1] | s[2] | s[3]) != 0, "Rng: the all-zero state is invalid");
     s_ = s;
 }
 
@@ -55,7 +55,7 @@ double Rng::normal() {
 }
 
 std::uint64_t Rng::below(std::uint64_t n) {
-    PCP_CHECK(n >= 1, "nn::Rng::below: n must be >= 1");
+    PCP_CHECK(n >= 1, "Rng::below: n must be >= 1");
     // Rejection sampling for an unbiased result.
     const std::uint64_t limit = ~std::uint64_t(0) - (~std::uint64_t(0) % n);
     std::uint64_t x;
@@ -64,4 +64,4 @@ std::uint64_t Rng::below(std::uint64_t n) {
     return x % n;
 }
 
-}  // namespace pcp::nn
+}  // namespace pcp
