@@ -6,6 +6,7 @@
 #include "pcp/types.hpp"
 
 #include <cstddef>
+#include <cstring>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -88,5 +89,18 @@ std::string npy_bytes(const PointCloud& cloud);
 std::string ply_mesh_bytes(const Mesh& mesh, bool ascii, int precision);
 std::string obj_bytes(const Mesh& mesh, int precision);
 std::string off_bytes(const Mesh& mesh, int precision);
+
+/// A scalar of type T read from `p` (binary file data), with its bytes reversed if `swap`.
+template <class T>
+T load(const unsigned char* p, bool swap) {
+    unsigned char b[sizeof(T)];
+    if (swap)
+        for (std::size_t k = 0; k < sizeof(T); ++k) b[k] = p[sizeof(T) - 1 - k];
+    else
+        std::memcpy(b, p, sizeof(T));
+    T v;
+    std::memcpy(&v, b, sizeof(T));
+    return v;
+}
 
 }  // namespace pcp::io_detail

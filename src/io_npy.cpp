@@ -32,18 +32,6 @@ std::size_t find_value(std::string_view dict, std::string_view key) {
     return std::string_view::npos;
 }
 
-template <class T>
-double load(const unsigned char* p, bool swap) {
-    unsigned char b[sizeof(T)];
-    if (swap)
-        for (std::size_t k = 0; k < sizeof(T); ++k) b[k] = p[sizeof(T) - 1 - k];
-    else
-        std::memcpy(b, p, sizeof(T));
-    T v;
-    std::memcpy(&v, b, sizeof(T));
-    return static_cast<double>(v);
-}
-
 }  // namespace
 
 PointCloud read_npy(const std::string& path, const std::string& data) {

@@ -130,18 +130,6 @@ PlyHeader parse_header(const std::string& path, const std::string& data) {
 
 constexpr bool kHostBigEndian = __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__;
 
-template <class T>
-T load(const unsigned char* p, bool swap) {
-    unsigned char b[sizeof(T)];
-    if (swap)
-        for (std::size_t k = 0; k < sizeof(T); ++k) b[k] = p[sizeof(T) - 1 - k];
-    else
-        std::memcpy(b, p, sizeof(T));
-    T v;
-    std::memcpy(&v, b, sizeof(T));
-    return v;
-}
-
 // Reads the body of a binary PLY. Every read checks the bounds; rows of fixed size are also
 // checked as a block up front so the message can say how much data the header promised.
 class BinarySource {

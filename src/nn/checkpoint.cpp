@@ -226,14 +226,20 @@ NetRecord<S> make_record(const std::string& name, const PointNet<S>& net,
     return r;
 }
 
-template <class S>
-BranchMlp<S> to_branch_mlp(const NetRecord<S>& rec) {
-    PCP_CHECK(rec.kind == NetKind::BranchMlp, "network '" << rec.name << "' is not a BranchMlp");
-    BranchMlp<S> net(branch_shape_of(rec.shape, rec.name));
+/// Copies the record's parameters into `net`, whose shape came from the record.
+template <class S, class Net>
+void copy_params(const NetRecord<S>& rec, Net& net) {
     PCP_CHECK(rec.params.size() == net.layout.size(),
               "network '" << rec.name << "': " << rec.params.size() << " parameters stored, its shape needs "
                           << net.layout.size());
     net.params = rec.params;
+}
+
+template <class S>
+BranchMlp<S> to_branch_mlp(const NetRecord<S>& rec) {
+    PCP_CHECK(rec.kind == NetKind::BranchMlp, "network '" << rec.name << "' is not a BranchMlp");
+    BranchMlp<S> net(branch_shape_of(rec.shape, rec.name));
+    copy_params(rec, net);
     return net;
 }
 
@@ -241,10 +247,7 @@ template <class S>
 PointNet<S> to_pointnet(const NetRecord<S>& rec) {
     PCP_CHECK(rec.kind == NetKind::PointNet, "network '" << rec.name << "' is not a PointNet");
     PointNet<S> net(pointnet_shape_of(rec.shape, rec.name));
-    PCP_CHECK(rec.params.size() == net.layout.size(),
-              "network '" << rec.name << "': " << rec.params.size() << " parameters stored, its shape needs "
-                          << net.layout.size());
-    net.params = rec.params;
+    copy_params(rec, net);
     return net;
 }
 
