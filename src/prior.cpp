@@ -156,7 +156,7 @@ std::string summarize(const PriorTrainOptions& o) {
       << " min_region_points=" << o.regions.min_points << " queries_per_point=" << o.sampling.queries_per_point
       << " sigma_neighbor=" << o.sampling.sigma_neighbor << " spreads=";
     for (std::size_t i = 0; i < o.sampling.spreads.size(); ++i) s << (i ? "," : "") << o.sampling.spreads[i];
-    s << " width=" << o.network.width << " depth=" << o.network.depth << " condition=" << o.network.condition
+    s << " uniform=" << o.sampling.uniform_fraction << "/" << o.sampling.uniform_margin << " width=" << o.network.width << " depth=" << o.network.depth << " condition=" << o.network.condition
       << " pointnet=" << o.network.pointnet_width << "/" << o.network.pointnet_hidden
       << " queries_per_step=" << o.queries_per_step << " epochs=" << o.epochs << " max_steps=" << o.max_steps
       << " lr=" << o.learning_rate << " schedule=" << (o.schedule == LrScheduleKind::Cosine ? "cosine" : "constant")

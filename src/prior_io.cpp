@@ -68,6 +68,8 @@ void save_prior(const std::string& path, const LocalPrior& prior) {
          << "sigma_neighbor=" << prior.sampling.sigma_neighbor << "\n"
          << "queries_per_point=" << prior.sampling.queries_per_point << "\n"
          << "spreads=" << join_floats(prior.sampling.spreads) << "\n"
+         << "uniform_fraction=" << prior.sampling.uniform_fraction << "\n"
+         << "uniform_margin=" << prior.sampling.uniform_margin << "\n"
          << "width=" << prior.network.width << "\n"
          << "depth=" << prior.network.depth << "\n"
          << "condition=" << prior.network.condition << "\n"
@@ -102,6 +104,8 @@ LocalPrior load_prior(const std::string& path) {
     prior.sampling.spreads.clear();
     std::istringstream spreads(value_of(kv, path, "spreads"));
     for (std::string item; std::getline(spreads, item, ',');) prior.sampling.spreads.push_back(std::stof(item));
+    prior.sampling.uniform_fraction = number_of<float>(kv, path, "uniform_fraction");
+    prior.sampling.uniform_margin = number_of<float>(kv, path, "uniform_margin");
     prior.network.width = number_of<int>(kv, path, "width");
     prior.network.depth = number_of<int>(kv, path, "depth");
     prior.network.condition = number_of<int>(kv, path, "condition");

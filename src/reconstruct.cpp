@@ -82,7 +82,10 @@ QueryNetFitter::QueryNetFitter(const Eigen::Ref<const Points>& points, const Loc
         fp << "width=" << options.width << " depth=" << options.depth << " batch=" << options.queries_per_step
            << " steps=" << options.steps << " lr=" << options.learning_rate << " schedule=" << static_cast<int>(options.schedule)
            << " warmup=" << options.warmup_steps << " clip=" << options.clip_norm << " seed=" << options.seed
-           << " qpp=" << options.sampling.queries_per_point << " points=" << points.rows() << std::hex
+           << " qpp=" << options.sampling.queries_per_point << " spreads=";
+        for (float x : options.sampling.spreads) fp << x << ",";
+        fp << " uniform=" << options.sampling.uniform_fraction << "/"
+           << options.sampling.uniform_margin << " points=" << points.rows() << std::hex
            << " data=" << nn::fnv1a64(m.unit.data(), static_cast<std::size_t>(m.unit.size()) * sizeof(float))
            << " prior=" << nn::fnv1a64(prior.decoder().params.data(), static_cast<std::size_t>(prior.decoder().params.size()) * sizeof(float));
         m.fingerprint = fp.str();

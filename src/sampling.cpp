@@ -6,6 +6,7 @@
 #include "pcp/rng.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace pcp {
 
@@ -41,7 +42,11 @@ QuerySet sample_queries(const KdTree& tree, const SamplingOptions& options, std:
     const PointsF& pts = tree.points();
     const Eigen::Index n = pts.rows();
     const Eigen::Index per = options.queries_per_point;
-    const Eigen::Index m = n * per;
+    const Eigen::Index near = n * per;
+    const auto uniform = static_cast<Eigen::Index>(std::llround(static_cast<double>(options.uniform_fraction) * static_cast<double>(near)));
+    PCP_CHECK(options.uniform_fraction >= 0.0f && options.uniform_margin >= 0.0f,
+              "query sampling: uniform_fraction and uniform_margin must be >= 0");
+    const Eigen::Index m = near + uniform;
     set.queries.resize(m, 3);
     const auto n_spreads = static_cast<Eigen::Index>(options.spreads.size());
 #pragma omp parallel for schedule(static, 256)
@@ -52,6 +57,18 @@ QuerySet sample_queries(const KdTree& tree, const SamplingOptions& options, std:
             const Eigen::Index row = i * per + j;
             for (int c = 0; c < 3; ++c)
                 set.queries(row, c) = pts(i, c) + sd * static_cast<float>(rng.normal());
+        }
+    }
+    if (uniform > 0) {
+        const Eigen::RowVector3f lo = pts.colwise().minCoeff(), hi = pts.colwise().maxCoeff();
+        const float grow = options.uniform_margin * (hi - lo).maxCoeff();
+        const Eigen::RowVector3f base = lo.array() - grow, size = (hi - lo).array() + 2 * grow;
+        constexpr std::uint64_t kUniformStreams = 1ull << 62;  // disjoint from the per-point streams
+#pragma omp parallel for schedule(static, 4096)
+        for (Eigen::Index k = 0; k < uniform; ++k) {
+            Rng rng(seed, kUniformStreams + static_cast<std::uint64_t>(k));
+            for (int c = 0; c < 3; ++c)
+                set.queries(near + k, c) = base(c) + size(c) * static_cast<float>(rng.uniform());
         }
     }
     set.target_ids = tree.nearest(set.queries);

@@ -79,3 +79,36 @@ TEST_CASE("sampling: duplicates get a non-zero spread and too few points are ref
     const pcp::KdTree small(sphere.points.topRows(50).cast<float>());
     CHECK_THROWS_WITH(pcp::sample_queries(small, {}, 3), Catch::Contains("at least 51"));
 }
+
+TEST_CASE("sampling: uniform queries fill the grown box, keep nearest targets and are deterministic", "[sampling]") {
+    const pcp::PointCloud torus = pcp::sample_torus(2000, 0.3, 0.1, 11);
+    const pcp::KdTree tree(torus.points.cast<float>());
+    pcp::SamplingOptions opts;
+    opts.queries_per_point = 10;
+    opts.uniform_fraction = 0.25f;
+    opts.uniform_margin = 0.1f;
+    const pcp::QuerySet set = pcp::sample_queries(tree, opts, 4);
+    const Eigen::Index near = 2000 * 10, uniform = 5000;
+    REQUIRE(set.queries.rows() == near + uniform);
+    const Eigen::RowVector3f lo = tree.points().colwise().minCoeff(), hi = tree.points().colwise().maxCoeff();
+    const float grow = 0.1f * (hi - lo).maxCoeff();
+    const pcp::PointsF u = set.queries.bottomRows(uniform);
+    CHECK(((u.rowwise() - (lo.array() - grow).matrix()).array() >= 0.0f).all());
+    CHECK(((-u).rowwise() + (hi.array() + grow).matrix()).array().minCoeff() >= 0.0f);
+    // Uniform: each half of the box along x holds about half of the queries (binomial sd ~ 35).
+    const float mid = 0.5f * (lo(0) + hi(0));
+    const auto left = (u.col(0).array() < mid).count();
+    CHECK(std::abs(static_cast<double>(left) - 2500.0) < 200.0);
+    // The near-surface queries are those of the plain sampling, unchanged by the extra ones.
+    pcp::SamplingOptions plain = opts;
+    plain.uniform_fraction = 0.0f;
+    CHECK(pcp::sample_queries(tree, plain, 4).queries == set.queries.topRows(near));
+    for (Eigen::Index r = near; r < set.queries.rows(); r += 97) {
+        float best = std::numeric_limits<float>::max();
+        for (Eigen::Index i = 0; i < tree.size(); ++i) best = std::min(best, (tree.points().row(i) - set.queries.row(r)).norm());
+        REQUIRE((set.targets.row(r) - set.queries.row(r)).norm() == Approx(best).margin(1e-6));
+    }
+    CHECK(pcp::sample_queries(tree, opts, 4).queries == set.queries);
+    opts.uniform_fraction = -0.1f;
+    CHECK_THROWS_WITH(pcp::sample_queries(tree, opts, 4), Catch::Contains("uniform_fraction"));
+}

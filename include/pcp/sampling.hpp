@@ -24,13 +24,21 @@ struct SamplingOptions {
     /// sigma_p is clamped below to this fraction of the cloud's bounding-box diagonal, so that
     /// clusters of duplicate points still get a non-zero spread.
     float min_sigma_fraction = 1e-5f;
+    /// Extra queries drawn uniformly in the cloud's bounding box grown by uniform_margin times
+    /// its longest edge on every side, as a fraction of the near-surface queries (0 = the paper's
+    /// sampling). Their targets are nearest points like all others, so the pulling loss asks
+    /// |F| to match the distance to the data there too: that forbids zero crossings far from
+    /// the data (floating blobs, shells inside thick parts). Not in the paper: a libpcp option.
+    float uniform_fraction = 0.0f;
+    float uniform_margin = 0.05f;
 };
 
 /// The minimum number of points sample_queries needs with these options.
 Eigen::Index min_points_for(const SamplingOptions& options);
 
 struct QuerySet {
-    PointsF queries;       ///< M x 3, M = N * queries_per_point; rows i*qpp .. i*qpp+qpp-1 belong to point i
+    PointsF queries;       ///< M x 3, M = N * queries_per_point + U; rows i*qpp .. i*qpp+qpp-1 belong to
+                           ///< point i, the last U = round(uniform_fraction * N * qpp) are uniform
     PointsF targets;       ///< M x 3, nearest cloud point of each query
     IndexVector target_ids;  ///< M, index of the target in the cloud
     Eigen::VectorXf sigma;   ///< N, sigma_p of each cloud point
