@@ -207,7 +207,9 @@ template <class S>
 class Stage2Trainer {
 public:
     /// The decoder is copied; it stays frozen unless config.train_decoder. With a FreeCode
-    /// condition the code starts at zero (set `code` before the first step to start elsewhere).
+    /// condition the code starts at zero: set `code` before the first step (with F's zero
+    /// condition biases of the geometric initialisation, a zero code is a dead start -- every
+    /// f-branch ReLU is off, so the code's gradient is zero).
     Stage2Trainer(BranchMlp<S> query_net, BranchMlp<S> decoder, int max_queries,
                   OptimOptions options = {}, Stage2Config config = {});
 
