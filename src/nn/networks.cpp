@@ -1,5 +1,6 @@
-// Forward passes, the input-gradient sweep, parameter backward, the stage-1 double backprop
-// (METHOD.md §4) and the initialisations of the networks in pcp/nn/networks.hpp.
+// Forward passes, the input-gradient sweep, parameter backward, the double backprop of the
+// pulling loss (METHOD.md §4; shared condition in stage 1, per-query condition when stage 2 trains
+// F) and the initialisations of the networks in pcp/nn/networks.hpp.
 //
 // Letters: N = batch, H = width, L = hidden layers, C = condition size. Buffers are column-major
 // `features x N`; `.leftCols(n)` selects the current batch inside a cache sized for the maximum.
@@ -12,6 +13,10 @@
 //    is asked for (stage 2);
 //  * the tangent is zero on the condition branch, so hidden 1's tangent product uses only the
 //    q-half columns of W_1, and the f-half weight gradient is rank one: (D_1 lambda) h_f^T;
+//  * a per-query condition (stage 2 with F trained, an ablation) costs the double backprop two
+//    more GEMMs (dL/dW_1b and dL/dW_b); only that path pays them;
+//  * an auto-decoded code (one condition column, F frozen) gets sum_i lambda_i g_f^(i) from
+//    D_1 lambda (O(H^2)) instead of the per-query g_f (O(H C N));
 //  * dL/dx is never formed at a network's first layer (inputs are data).
 #include "pcp/nn/networks.hpp"
 
