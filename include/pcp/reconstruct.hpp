@@ -61,7 +61,7 @@ struct QueryFitOptions {
     LrScheduleKind schedule = LrScheduleKind::Constant;
     std::int64_t warmup_steps = 0;
     double clip_norm = 0.0;
-    bool zero_shift_init = true;     ///< start with dq = 0 (q_l' = q_g)
+    bool zero_shift_init = true;     ///< start with dq = 0 (q_l' = q_g); modes with a shift only
     QueryAblation ablation = QueryAblation::None;  ///< the paper's ablations (see above)
     std::uint64_t seed = 1;
     std::int64_t progress_every = 100;
