@@ -56,6 +56,9 @@ int main(int argc, char** argv) {
             ("batch", "Queries per step", cxxopts::value<int>()->default_value(std::to_string(d.fit.queries_per_step)))
             ("lr", "Learning rate", cxxopts::value<double>()->default_value(fmt(d.fit.learning_rate)))
             ("width", "Query-network width", cxxopts::value<int>()->default_value(std::to_string(d.fit.width)))
+            ("ablation", "The paper's stage-2 ablations: none (the method) | no-shift | direct | free-code | pointnet-code | "
+                         "no-prior | tune-prior (see include/pcp/reconstruct.hpp)",
+             cxxopts::value<std::string>()->default_value(pcp::to_string(d.fit.ablation)))
             ("checkpoint-every", "Steps between checkpoints", cxxopts::value<long>()->default_value(std::to_string(d.fit.checkpoint_every)))
             ("progress-every", "Steps between progress lines", cxxopts::value<long>()->default_value(std::to_string(d.fit.progress_every)));
         options.add_options("Meshing")
@@ -81,6 +84,11 @@ int main(int argc, char** argv) {
         if (args.count("batch")) o.fit.queries_per_step = args["batch"].as<int>();
         if (args.count("lr")) o.fit.learning_rate = args["lr"].as<double>();
         if (args.count("width")) o.fit.width = args["width"].as<int>();
+        try {
+            o.fit.ablation = pcp::parse_query_ablation(args["ablation"].as<std::string>());
+        } catch (const pcp::Error& e) {
+            throw pcp::cli::UsageError(e.what());
+        }
         if (args.count("checkpoint-every")) o.fit.checkpoint_every = args["checkpoint-every"].as<long>();
         if (args.count("progress-every")) o.fit.progress_every = args["progress-every"].as<long>();
         if (args.count("resolution")) o.resolution = args["resolution"].as<int>();
@@ -121,9 +129,12 @@ int main(int argc, char** argv) {
 
         pcp::cli::print_parameter_table(log, {{"input", input + " (" + std::to_string(cloud.points.rows()) + " points)"},
                                               {"output", output},
-                                              {"prior", prior_path.empty() ? "self-prior (" + std::to_string(o.self_prior.epochs) + " epochs)" : prior_path},
+                                              {"prior", !prior_path.empty() ? prior_path
+                                                        : o.fit.ablation == pcp::QueryAblation::NoPrior ? "none (F trained from scratch)"
+                                                        : "self-prior (" + std::to_string(o.self_prior.epochs) + " epochs)"},
                                               {"preset", args["preset"].as<std::string>()},
                                               {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step)},
+                                              {"ablation", pcp::to_string(o.fit.ablation)},
                                               {"resolution", std::to_string(o.resolution)},
                                               {"seed", std::to_string(common.seed)}});
         o.progress = pcp::cli::make_progress_printer(log, o.fit.progress_every);

@@ -3,6 +3,8 @@
 // them (seeded per step) and calls nn::Stage2Trainer::step. The SDF for meshing is F_g evaluated
 // by nn::global_sdf_eval with one cache per OpenMP thread. The sign is decided on samples of the
 // grid box's boundary, which lie outside the shape: if most are negative, the field is negated.
+// The ablations (QueryAblation) choose the nn::Stage2Config; the pointnet-code one also keeps the
+// per-region conditions and the cell -> region table here.
 #include "pcp/reconstruct.hpp"
 
 #include "detail/step_loop.hpp"
@@ -13,10 +15,14 @@
 #include "pcp/nn/networks.hpp"
 #include "pcp/nn/steps.hpp"
 #include "pcp/normalize.hpp"
+#include "pcp/regions.hpp"
 #include "pcp/rng.hpp"
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <deque>
 #include <filesystem>
 #include <map>
@@ -34,7 +40,72 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 constexpr int kEvalBatch = 4096;
+
+struct AblationName {
+    QueryAblation mode;
+    const char* name;
+};
+constexpr AblationName kAblations[] = {
+    {QueryAblation::None, "none"},           {QueryAblation::NoShift, "no-shift"},
+    {QueryAblation::Direct, "direct"},       {QueryAblation::FreeCode, "free-code"},
+    {QueryAblation::PointNetCode, "pointnet-code"}, {QueryAblation::NoPrior, "no-prior"},
+    {QueryAblation::TunePrior, "tune-prior"},
+};
+
+nn::Stage2Config stage2_config(QueryAblation mode) {
+    nn::Stage2Config c;
+    switch (mode) {
+        case QueryAblation::None: break;
+        case QueryAblation::NoShift: c.point = nn::QueryPoint::Identity; break;
+        case QueryAblation::Direct: c.point = nn::QueryPoint::Direct; break;
+        case QueryAblation::FreeCode: c.condition = nn::QueryCondition::FreeCode; break;
+        case QueryAblation::PointNetCode: c.condition = nn::QueryCondition::Given; break;
+        case QueryAblation::NoPrior:
+        case QueryAblation::TunePrior: c.train_decoder = true; break;
+    }
+    return c;
+}
+
+/// Space-separated hexadecimal floats (exact round trip) for checkpoint metadata.
+std::string hex_floats(const nn::Vec<float>& v) {
+    std::string s;
+    char buf[48];
+    for (Eigen::Index i = 0; i < v.size(); ++i) {
+        std::snprintf(buf, sizeof buf, i ? " %a" : "%a", static_cast<double>(v(i)));
+        s += buf;
+    }
+    return s;
+}
+
+/// The value of `key=` in metadata lines, parsed as `n` hexadecimal floats.
+nn::Vec<float> metadata_floats(const std::string& meta, const std::string& key, Eigen::Index n, const std::string& path) {
+    const std::string tag = "\n" + key + "=";
+    const std::size_t at = meta.find(tag);
+    PCP_CHECK(at != std::string::npos, path << ": the checkpoint has no '" << key << "' (written by another mode?)");
+    const char* p = meta.c_str() + at + tag.size();
+    nn::Vec<float> v(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+        char* end = nullptr;
+        v(i) = static_cast<float>(std::strtod(p, &end));
+        PCP_CHECK(end != p, path << ": corrupt '" << key << "' in the checkpoint (" << i << " of " << n << " values)");
+        p = end;
+    }
+    return v;
+}
+
 }  // namespace
+
+QueryAblation parse_query_ablation(const std::string& name) {
+    for (const AblationName& a : kAblations)
+        if (name == a.name) return a.mode;
+    PCP_FAIL("unknown ablation '" << name << "' (use none, no-shift, direct, free-code, pointnet-code, no-prior or tune-prior)");
+}
+
+std::string to_string(QueryAblation ablation) {
+    for (const AblationName& a : kAblations)
+        if (ablation == a.mode) return a.name;
+    return "?";
+}
 
 struct QueryNetFitter::Impl {
     QueryFitOptions options;
@@ -46,7 +117,59 @@ struct QueryNetFitter::Impl {
     MatF q, t, codes;       ///< batch buffers; codes stays 0 x 0 (one cloud, no shape code)
     std::deque<double> recent;
     mutable std::vector<std::unique_ptr<nn::GlobalSdfCache<float>>> caches;  ///< one per thread
+    nn::Stage2Config config;
+    // pointnet-code: the frozen encoder's condition of each region (C x R), the region of each
+    // grid cell, and the grid (the cloud's box split like split_into_regions does).
+    MatF region_cond;
+    std::vector<int> cell_region;
+    Eigen::Vector3f grid_lo = Eigen::Vector3f::Zero(), grid_extent = Eigen::Vector3f::Zero();
+    int grid = 1;
+    MatF cond;              ///< C x batch: the gathered conditions of a step
+
+    int region_of(const Eigen::Vector3f& p) const {
+        int id = 0;
+        for (int c = 2; c >= 0; --c) {
+            int k = 0;
+            if (grid_extent(c) > 0.0f) k = static_cast<int>(std::floor((p(c) - grid_lo(c)) / grid_extent(c) * static_cast<float>(grid)));
+            id = id * grid + std::clamp(k, 0, grid - 1);
+        }
+        return cell_region[static_cast<std::size_t>(id)];
+    }
+    /// dst (C x n) = the conditions of the regions of the columns of pts (3 x n, unit box).
+    void gather_conditions(const Eigen::Ref<const MatF>& pts, Eigen::Ref<MatF> dst) const {
+        for (Eigen::Index i = 0; i < pts.cols(); ++i) dst.col(i) = region_cond.col(region_of(pts.col(i)));
+    }
+    void prepare_region_conditions(const LocalPrior& prior);
 };
+
+void QueryNetFitter::Impl::prepare_region_conditions(const LocalPrior& prior) {
+    const std::vector<Region> regions = split_into_regions(unit, prior.regions);
+    PCP_CHECK(!regions.empty(), "query fitting (pointnet-code): no region of the prior's " << prior.regions.grid
+                                    << "^3 grid has " << prior.regions.min_points << " points");
+    grid = prior.regions.grid;
+    grid_lo = unit.colwise().minCoeff().transpose();
+    grid_extent = unit.colwise().maxCoeff().transpose() - grid_lo;
+    const nn::PointNet<float>& encoder = prior.encoder();
+    region_cond.resize(encoder.shape.cond(), static_cast<Eigen::Index>(regions.size()));
+    Eigen::Index most = 1;
+    for (const Region& r : regions) most = std::max(most, r.point_ids.size());
+    nn::PointNetCache<float> cache(encoder.shape, static_cast<int>(most), false);
+    for (std::size_t r = 0; r < regions.size(); ++r) {
+        const MatF pts = region_points(unit, regions[r]).transpose();
+        nn::pointnet_forward<float>(encoder, pts, cache);
+        region_cond.col(static_cast<Eigen::Index>(r)) = cache.f();
+    }
+    // Every cell -> the region whose cell is nearest (its own when it has one).
+    cell_region.assign(static_cast<std::size_t>(grid) * grid * grid, 0);
+    for (int id = 0; id < grid * grid * grid; ++id) {
+        const Eigen::Vector3i cell(id % grid, (id / grid) % grid, id / (grid * grid));
+        int best = 0;
+        for (std::size_t r = 1; r < regions.size(); ++r)
+            if ((regions[r].cell - cell).squaredNorm() < (regions[static_cast<std::size_t>(best)].cell - cell).squaredNorm())
+                best = static_cast<int>(r);
+        cell_region[static_cast<std::size_t>(id)] = best;
+    }
+}
 
 QueryNetFitter::QueryNetFitter(const Eigen::Ref<const Points>& points, const LocalPrior& prior,
                                const QueryFitOptions& options)
@@ -64,9 +187,22 @@ QueryNetFitter::QueryNetFitter(const Eigen::Ref<const Points>& points, const Loc
         m.queries = set.queries.transpose();
         m.targets = set.targets.transpose();
     }
-    nn::BranchMlp<float> query_net(nn::query_net_shape(prior.network.condition, options.width, options.depth));
+    m.config = stage2_config(options.ablation);
+    const int C = prior.decoder().shape.in_b;
+    nn::BranchMlp<float> query_net(nn::stage2_query_shape(m.config, C, options.width, options.depth));
     nn::Rng rng(options.seed, 202);
-    nn::init_query_net(query_net, rng, options.zero_shift_init);
+    // Rows 0..2 are the shift only when Q predicts one (not for no-shift, where they are f', nor
+    // for direct, where q_l' itself is predicted: see QueryAblation).
+    nn::init_query_net(query_net, rng, options.zero_shift_init && m.config.point == nn::QueryPoint::Shift);
+    nn::BranchMlp<float> decoder = prior.decoder();
+    if (options.ablation == QueryAblation::NoPrior) {
+        nn::Rng frng(options.seed, 203);
+        nn::init_decoder_geometric(decoder, frng);
+    }
+    if (options.ablation == QueryAblation::PointNetCode) {
+        m.prepare_region_conditions(prior);
+        m.cond.resize(C, options.queries_per_step);
+    }
     nn::OptimOptions optim;
     optim.lr.lr = options.learning_rate;
     if (options.schedule == LrScheduleKind::Cosine) {
@@ -76,10 +212,15 @@ QueryNetFitter::QueryNetFitter(const Eigen::Ref<const Points>& points, const Loc
     }
     optim.lr.warmup_steps = options.warmup_steps;
     optim.clip_norm = options.clip_norm;
-    m.trainer = std::make_unique<nn::Stage2Trainer<float>>(query_net, prior.decoder(), options.queries_per_step, optim);
+    m.trainer = std::make_unique<nn::Stage2Trainer<float>>(query_net, decoder, options.queries_per_step, optim, m.config);
+    if (options.ablation == QueryAblation::FreeCode) {  // DeepSDF's code initialisation, N(0, 1/C)
+        nn::Rng crng(options.seed, 204);
+        for (Eigen::Index i = 0; i < m.trainer->code.size(); ++i)
+            m.trainer->code(i) = static_cast<float>(crng.normal(0.0, 1.0 / std::sqrt(static_cast<double>(C))));
+    }
     {
         std::ostringstream fp;
-        fp << "width=" << options.width << " depth=" << options.depth << " batch=" << options.queries_per_step
+        fp << "ablation=" << to_string(options.ablation) << " width=" << options.width << " depth=" << options.depth << " batch=" << options.queries_per_step
            << " steps=" << options.steps << " lr=" << options.learning_rate << " schedule=" << static_cast<int>(options.schedule)
            << " warmup=" << options.warmup_steps << " clip=" << options.clip_norm << " seed=" << options.seed
            << " qpp=" << options.sampling.queries_per_point << " spreads=";
@@ -115,7 +256,13 @@ double QueryNetFitter::step() {
         m.q.col(i) = m.queries.col(j);
         m.t.col(i) = m.targets.col(j);
     }
-    const double loss = m.trainer->step(m.q, m.t, m.codes);
+    double loss;
+    if (m.config.condition == nn::QueryCondition::Given) {
+        m.gather_conditions(m.q, m.cond);
+        loss = m.trainer->step(m.q, m.t, m.codes, m.cond);
+    } else {
+        loss = m.trainer->step(m.q, m.t, m.codes);
+    }
     PCP_CHECK(std::isfinite(loss), "query fitting: the loss became " << loss << " at step " << s
                                        << "; lower the learning rate or enable gradient clipping");
     m.recent.push_back(loss);
@@ -142,10 +289,19 @@ void QueryNetFitter::sdf(const Eigen::Ref<const PointsF>& unit_points, Eigen::Re
     const Eigen::Index n = unit_points.rows();
     const Eigen::Index batches = (n + kEvalBatch - 1) / kEvalBatch;
     const MatF none;
+    const nn::Stage2Trainer<float>& tr = *m.trainer;
+    const Eigen::Map<const MatF> code(tr.code.data(), tr.code.size(), tr.code.size() ? 1 : 0);
     auto run_batch = [&](Eigen::Index b, nn::GlobalSdfCache<float>& cache) {
         const Eigen::Index start = b * kEvalBatch, len = std::min<Eigen::Index>(kEvalBatch, n - start);
         const MatF q = unit_points.middleRows(start, len).transpose();
-        values.segment(start, len) = nn::global_sdf_eval<float>(m.trainer->query_net, m.trainer->decoder, q, none, cache).transpose();
+        if (m.config.condition == nn::QueryCondition::Given) {
+            if (cache.cond.cols() < kEvalBatch) cache.cond.resize(m.region_cond.rows(), kEvalBatch);
+            m.gather_conditions(q, cache.cond.leftCols(len));
+            values.segment(start, len) =
+                nn::global_sdf_eval<float>(tr.query_net, tr.decoder, q, none, cache.cond.leftCols(len), m.config, cache).transpose();
+        } else {
+            values.segment(start, len) = nn::global_sdf_eval<float>(tr.query_net, tr.decoder, q, none, code, m.config, cache).transpose();
+        }
     };
     if (omp_in_parallel() || batches == 1) {  // called from a parallel region: stay on this thread
         const int tid = omp_get_thread_num();
@@ -167,7 +323,12 @@ void QueryNetFitter::checkpoint(const std::string& path) const {
     nn::NetFile<float> file;
     file.step = static_cast<std::uint64_t>(m.trainer->steps);
     file.metadata = std::string("format=") + kFitCheckpointFormat + "\nfingerprint=" + m.fingerprint + "\n";
-    file.nets.push_back(nn::make_record("query_net", m.trainer->query_net, &m.trainer->adam_query));
+    const nn::Stage2Trainer<float>& tr = *m.trainer;
+    if (tr.code.size() > 0)
+        file.metadata += "code=" + hex_floats(tr.code) + "\ncode_adam_m=" + hex_floats(tr.adam_code.m) +
+                         "\ncode_adam_v=" + hex_floats(tr.adam_code.v) + "\ncode_adam_t=" + std::to_string(tr.adam_code.t) + "\n";
+    file.nets.push_back(nn::make_record("query_net", tr.query_net, &tr.adam_query));
+    if (tr.config.train_decoder) file.nets.push_back(nn::make_record("decoder", tr.decoder, &tr.adam_decoder));
     nn::save_net_file(path, file);
 }
 
@@ -182,6 +343,21 @@ void QueryNetFitter::resume(const std::string& path) {
     PCP_CHECK(rec.has_adam, path << ": the checkpoint holds no optimiser state");
     m.trainer->query_net = nn::to_branch_mlp(rec);
     m.trainer->adam_query = rec.adam;
+    if (m.config.train_decoder) {
+        const nn::NetRecord<float>& drec = file.get("decoder");
+        PCP_CHECK(drec.has_adam, path << ": the checkpoint holds no optimiser state for the decoder");
+        m.trainer->decoder = nn::to_branch_mlp(drec);
+        m.trainer->adam_decoder = drec.adam;
+    }
+    if (m.trainer->code.size() > 0) {
+        const Eigen::Index C = m.trainer->code.size();
+        m.trainer->code = metadata_floats(file.metadata, "code", C, path);
+        m.trainer->adam_code.m = metadata_floats(file.metadata, "code_adam_m", C, path);
+        m.trainer->adam_code.v = metadata_floats(file.metadata, "code_adam_v", C, path);
+        const std::size_t at = file.metadata.find("\ncode_adam_t=");
+        PCP_CHECK(at != std::string::npos, path << ": the checkpoint has no 'code_adam_t'");
+        m.trainer->adam_code.t = std::strtoll(file.metadata.c_str() + at + 13, nullptr, 10);
+    }
     m.trainer->steps = static_cast<std::int64_t>(file.step);
     m.recent.clear();
 }
@@ -275,6 +451,10 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     const std::string prior_ckpt = options.fit.checkpoint_path.empty() ? "" : options.fit.checkpoint_path + ".prior";
     if (!prior && options.fit.resume && !prior_ckpt.empty() && std::filesystem::exists(prior_ckpt)) {
         self_prior = load_prior(prior_ckpt);
+        prior = &self_prior;
+    }
+    if (!prior && options.fit.ablation == QueryAblation::NoPrior) {  // F's sizes only: no training
+        self_prior = LocalPrior(options.self_prior.network, options.self_prior.seed);
         prior = &self_prior;
     }
     if (!prior) {

@@ -179,3 +179,11 @@ TEST_CASE("cli: usage errors exit 2, --help exits 0 and lists defaults", "[cli]"
     CHECK(run(bin("pcp_eval") + " a.ply b.ply --protocol famous").exit_code == 2);
     CHECK(run(bin("pcp_train") + " --grid 0 x.ply").exit_code == 2);
 }
+
+TEST_CASE("cli: --ablation takes the paper's ablation names; others exit 2 with the list", "[cli]") {
+    const RunResult bad = run(bin("pcp_reconstruct") + " --ablation no-dq");
+    INFO("stderr: " << bad.err);
+    CHECK(bad.exit_code == 2);
+    CHECK(bad.err.find("unknown ablation 'no-dq'") != std::string::npos);
+    CHECK(bad.err.find("pointnet-code") != std::string::npos);
+}

@@ -418,3 +418,199 @@ TEST_CASE("nn: pull loss derivatives match finite differences; p == t gives no N
     CHECK(std::isfinite(lam1(0)));
     CHECK(v1.allFinite());
 }
+
+// ------------------------------------------------------------------------------------------------
+// Stage-2 ablations (Stage2Config): per-query double backprop of F, F trained with Q, a free code
+// ------------------------------------------------------------------------------------------------
+
+namespace {
+
+/// Reference loss of any stage-2 configuration (per sample, loops): Q(q_g [, code]) -> rows;
+/// q_l' and f' formed as Stage2Config says; pulled from q_g with s, g of F at (q_l', f').
+double stage2_loss_cfg(const BranchMlp<double>& Q, const BranchMlp<double>& F, const MatrixXd& qg,
+                       const MatrixXd& t, const MatrixXd& cond, const Stage2Config& cfg,
+                       nnref::Kinks* k) {
+    const int C = F.shape.in_b;
+    double sum = 0.0;
+    for (Eigen::Index i = 0; i < qg.cols(); ++i) {
+        const nnref::Trace tq = nnref::forward(Q, qg.col(i), VectorXd(), k);
+        VectorXd ql = qg.col(i);
+        int row = 0;
+        if (cfg.point == QueryPoint::Shift) ql += tq.out.head(3);
+        if (cfg.point == QueryPoint::Direct) ql = tq.out.head(3);
+        if (cfg.point != QueryPoint::Identity) row = 3;
+        VectorXd f;
+        switch (cfg.condition) {
+            case QueryCondition::Predicted: f = tq.out.segment(row, C); break;
+            case QueryCondition::FreeCode: f = cond.col(0); break;
+            case QueryCondition::Given: f = cond.col(i); break;
+        }
+        const nnref::Trace tf = nnref::forward(F, ql, f, k);
+        VectorXd ga, gb;
+        nnref::input_grad(F, tf, ga, gb);
+        sum += nnref::pull_one(qg.col(i), tf.out(0), ga, t.col(i));
+    }
+    return sum / double(qg.cols());
+}
+
+/// The per-query-condition loss of F alone: mean_i |q_i - s_i g_i/|g_i| - t_i| with
+/// s_i = F(q_i, f_i) (the quantity decoder_double_backward differentiates).
+double per_query_loss(const BranchMlp<double>& F, const MatrixXd& q, const MatrixXd& f,
+                      const MatrixXd& t, nnref::Kinks* k) {
+    double sum = 0.0;
+    for (Eigen::Index i = 0; i < q.cols(); ++i) {
+        const nnref::Trace tr = nnref::forward(F, q.col(i), f.col(i), k);
+        VectorXd ga, gb;
+        nnref::input_grad(F, tr, ga, gb);
+        sum += nnref::pull_one(q.col(i), tr.out(0), ga, t.col(i));
+    }
+    return sum / double(q.cols());
+}
+
+std::vector<Eigen::Index> all_coords(Eigen::Index n) {
+    std::vector<Eigen::Index> c(static_cast<std::size_t>(n));
+    for (Eigen::Index i = 0; i < n; ++i) c[static_cast<std::size_t>(i)] = i;
+    return c;
+}
+
+}  // namespace
+
+TEST_CASE("nn: double backprop with a per-query condition matches finite differences", "[nn]") {
+    for (int H : {16, 32}) {
+        Rng rng(40 + H, 0);
+        const int C = 6, L = 8, N = 10;
+        BranchMlp<double> F = make_decoder(C, H, L, rng);
+        MatrixXd q, f, t;
+        int redraws = 0;
+        for (;;) {
+            q = randn(3, N, rng, 0.3);
+            f = randn(C, N, rng, 0.5);
+            t = q + randn(3, N, rng, 0.05);
+            nnref::Kinks k;
+            per_query_loss(F, q, f, t, &k);
+            if (k.min_abs >= 10 * kEps) break;
+            ++redraws;
+        }
+        CHECK(redraws <= 3);
+        BranchMlpCache<double> cache(F.shape, N);
+        branch_mlp_forward<double>(F, q, f, cache);
+        decoder_input_grad(F, cache, true);
+        VectorXd lam(N);
+        MatrixXd v(3, N);
+        const double L0 = pull_loss<double>(q, cache.out.leftCols(N), cache.g_a.leftCols(N), t, lam, v);
+        CHECK(std::abs(L0 - per_query_loss(F, q, f, t, nullptr)) < 1e-12);
+        VectorXd dF(F.layout.size()), df(C * N), df_sum(C), dF2(F.layout.size());
+        decoder_double_backward<double>(F, cache, q, f, lam, v, dF, df, GradMode::Overwrite);
+        // The summed form and Accumulate mode agree with the per-query form.
+        decoder_double_backward<double>(F, cache, q, f, lam, v, dF2, df_sum, GradMode::Overwrite);
+        CHECK((Eigen::Map<const MatrixXd>(df.data(), C, N).rowwise().sum() - df_sum).norm() < 1e-12);
+        decoder_double_backward<double>(F, cache, q, f, lam, v, dF2, df_sum, GradMode::Accumulate);
+        CHECK((dF2 - 2 * dF).norm() < 1e-12 * dF.norm());
+
+        auto loss_theta = [&](nnref::Kinks* k) { return per_query_loss(F, q, f, t, k); };
+        const auto cf = nnref::sample_coords(F.layout, 48);
+        const auto rF = nnref::check_gradient(F.params, dF, cf, loss_theta, kEps, kTol, kAtol, "dL/dtheta_F");
+        require_check(rF, int(cf.size()), "per-query double backprop, H = " + std::to_string(H));
+        // dL/df per query (the path into a predicted f').
+        VectorXd fx = Eigen::Map<const VectorXd>(f.data(), f.size());
+        auto loss_f = [&](nnref::Kinks* k) {
+            return per_query_loss(F, q, Eigen::Map<const MatrixXd>(fx.data(), C, N), t, k);
+        };
+        const auto cfx = all_coords(fx.size());
+        const auto rf = nnref::check_gradient(fx, df, cfx, loss_f, kEps, kTol, kAtol, "dL/df");
+        require_check(rf, int(cfx.size()), "per-query dL/df, H = " + std::to_string(H));
+    }
+    // Without d_0b (input gradient swept without want_b) the per-query pass refuses to run.
+    Rng rng(49, 0);
+    const BranchMlp<double> F = make_decoder(4, 16, 8, rng);
+    BranchMlpCache<double> cache(F.shape, 4);
+    const MatrixXd q = randn(3, 4, rng), f = randn(4, 4, rng);
+    branch_mlp_forward<double>(F, q, f, cache);
+    decoder_input_grad(F, cache, false);
+    VectorXd dF(F.layout.size()), none(0), lam = VectorXd::Ones(4);
+    CHECK_THROWS_WITH(decoder_double_backward<double>(F, cache, q, f, lam, MatrixXd::Zero(3, 4), dF,
+                                                      none, GradMode::Overwrite),
+                      Catch::Contains("want_b = true"));
+}
+
+TEST_CASE("nn: stage-2 ablation gradients (Q, F, free code) match finite differences", "[nn]") {
+    struct Variant {
+        const char* name;
+        Stage2Config cfg;
+        bool plain_init;  // geometric initialisation as is (the no-prior start), no bias noise
+    };
+    std::vector<Variant> variants;
+    auto add = [&](const char* name, QueryPoint p, QueryCondition c, bool train, bool plain) {
+        Stage2Config cfg;
+        cfg.point = p;
+        cfg.condition = c;
+        cfg.train_decoder = train;
+        variants.push_back({name, cfg, plain});
+    };
+    add("method", QueryPoint::Shift, QueryCondition::Predicted, false, false);
+    add("no-shift", QueryPoint::Identity, QueryCondition::Predicted, false, false);
+    add("direct", QueryPoint::Direct, QueryCondition::Predicted, false, false);
+    add("free-code", QueryPoint::Shift, QueryCondition::FreeCode, false, false);
+    add("given", QueryPoint::Shift, QueryCondition::Given, false, false);
+    add("tune-prior", QueryPoint::Shift, QueryCondition::Predicted, true, false);
+    add("no-prior", QueryPoint::Shift, QueryCondition::Predicted, true, true);
+    add("free-code + F", QueryPoint::Shift, QueryCondition::FreeCode, true, false);
+    add("given + F", QueryPoint::Shift, QueryCondition::Given, true, false);
+    int seed = 60;
+    for (const Variant& var : variants) {
+        INFO("variant " << var.name);
+        Rng rng(++seed, 0);
+        const int C = 6, H = 16, L = 8, N = 10;
+        BranchMlp<double> F = make_decoder(C, H, L, rng);
+        if (var.plain_init) init_decoder_geometric(F, rng);
+        BranchMlp<double> Q(stage2_query_shape(var.cfg, C, H, L));
+        init_query_net(Q, rng, false);
+        for (int l = 0; l < Q.layout.num_layers(); ++l)
+            for (int i = 0; i < Q.layout.rows(l); ++i) Q.b(l)(i, 0) += rng.normal(0.0, 0.05);
+        if (var.cfg.point == QueryPoint::Shift) Q.W(layer_head(Q.shape)).topRows(3) *= 0.1;
+        if (var.cfg.point == QueryPoint::Direct) Q.W(layer_head(Q.shape)).topRows(3) *= 0.3;
+        MatrixXd qg, t, cond;
+        int redraws = 0;
+        for (;;) {
+            qg = randn(3, N, rng, 0.3);
+            t = qg + randn(3, N, rng, 0.05);
+            if (var.cfg.condition == QueryCondition::FreeCode) cond = randn(C, 1, rng, 0.5);
+            if (var.cfg.condition == QueryCondition::Given) cond = randn(C, N, rng, 0.5);
+            nnref::Kinks k;
+            stage2_loss_cfg(Q, F, qg, t, cond, var.cfg, &k);
+            if (k.min_abs >= 10 * kEps) break;
+            ++redraws;
+        }
+        CHECK(redraws <= 3);
+        Stage2Workspace<double> ws(Q.shape, F.shape, N, var.cfg);
+        VectorXd dQ(Q.layout.size()), dF(var.cfg.train_decoder ? F.layout.size() : 0),
+            dc(var.cfg.condition == QueryCondition::FreeCode ? C : 0);
+        const MatrixXd none;
+        const double L0 = ws.loss_and_grad(Q, F, qg, t, none, cond, dQ, dF, dc);
+        auto loss = [&](nnref::Kinks* k) { return stage2_loss_cfg(Q, F, qg, t, cond, var.cfg, k); };
+        CHECK(std::abs(L0 - loss(nullptr)) < 1e-12);
+        CHECK(std::abs(ws.loss(Q, F, qg, t, none, cond) - L0) < 1e-15);
+        // The field used for meshing is the one trained.
+        GlobalSdfCache<double> ec(Q.shape, F.shape, N);
+        const MatrixXd s = global_sdf_eval<double>(Q, F, qg, none, cond, var.cfg, ec);
+        CHECK((s - ws.dec.out.leftCols(N)).cwiseAbs().maxCoeff() == 0.0);
+
+        const auto cq = nnref::sample_coords(Q.layout, 48);
+        const auto rQ = nnref::check_gradient(Q.params, dQ, cq, loss, kEps, kTol, kAtol, "dL/dtheta_Q");
+        require_check(rQ, int(cq.size()), std::string(var.name) + ": dL/dtheta_Q");
+        if (var.cfg.train_decoder) {
+            const auto cf = nnref::sample_coords(F.layout, 48);
+            const auto rF = nnref::check_gradient(F.params, dF, cf, loss, kEps, kTol, kAtol, "dL/dtheta_F");
+            require_check(rF, int(cf.size()), std::string(var.name) + ": dL/dtheta_F");
+        }
+        if (var.cfg.condition == QueryCondition::FreeCode) {
+            VectorXd code = cond.col(0);
+            auto loss_code = [&](nnref::Kinks* k) {
+                return stage2_loss_cfg(Q, F, qg, t, code, var.cfg, k);
+            };
+            const auto cc = all_coords(C);
+            const auto rc = nnref::check_gradient(code, dc, cc, loss_code, kEps, kTol, kAtol, "dL/dcode");
+            require_check(rc, C, std::string(var.name) + ": dL/dcode");
+        }
+    }
+}

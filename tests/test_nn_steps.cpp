@@ -287,3 +287,60 @@ TEST_CASE("nn: step inputs are checked", "[nn]") {
     CHECK_THROWS_WITH(Stage2Workspace<float>(Q.shape, F.shape, 8),
                       Catch::Contains("must output 3 + C"));
 }
+
+TEST_CASE("nn: the stage-2 ablation steps allocate nothing after the first either", "[nn]") {
+    const int threads = Eigen::nbThreads();
+    Eigen::setNbThreads(1);
+    Rng rng(35, 0);
+    BranchMlp<float> F(decoder_shape(kC, kH, 8));
+    init_decoder_geometric(F, rng);
+    const int N = 64;
+    const MatrixXf pts = sphere_points(N, 0.3f, rng);
+    MatrixXf q, t;
+    make_queries(pts, 1, 0.03f, rng, q, t);
+    MatrixXf given(kC, N);
+    for (int j = 0; j < N; ++j)
+        for (int i = 0; i < kC; ++i) given(i, j) = float(rng.normal(0.0, 0.3));
+    const MatrixXf no_codes;
+    OptimOptions o = adam_lr(1e-3);
+    o.clip_norm = 1.0;
+    for (int variant = 0; variant < 5; ++variant) {
+        Stage2Config cfg;  // 0: F trained with Q; 1: free code; 2: given; 3: no shift; 4: direct
+        if (variant == 0) cfg.train_decoder = true;
+        if (variant == 1) cfg.condition = QueryCondition::FreeCode;
+        if (variant == 2) cfg.condition = QueryCondition::Given;
+        if (variant == 3) cfg.point = QueryPoint::Identity;
+        if (variant == 4) cfg.point = QueryPoint::Direct;
+        BranchMlp<float> Q(stage2_query_shape(cfg, kC, kH, 8));
+        init_query_net(Q, rng, cfg.point == QueryPoint::Shift);
+        Stage2Trainer<float> s2(Q, F, N, o, cfg);
+        GlobalSdfCache<float> eval(Q.shape, F.shape, N);
+        const Eigen::Map<const MatrixXf> code(s2.code.data(), s2.code.size(), s2.code.size() ? 1 : 0);
+        auto step = [&] { return variant == 2 ? s2.step(q, t, no_codes, given) : s2.step(q, t, no_codes); };
+        // (A zero code is a dead start with F's zero condition biases: every f-branch ReLU is off.)
+        for (Eigen::Index i = 0; i < s2.code.size(); ++i) s2.code(i) = float(rng.normal(0.0, 0.25));
+        const Eigen::VectorXf before = F.params, code0 = s2.code;
+        step();
+        long n_step, n_eval;
+        {
+            CountAllocations count;
+            for (int i = 0; i < 3; ++i) step();
+            n_step = count.count();
+        }
+        {
+            CountAllocations count;
+            if (variant == 2)
+                global_sdf_eval<float>(s2.query_net, s2.decoder, q, no_codes, given, cfg, eval);
+            else
+                global_sdf_eval<float>(s2.query_net, s2.decoder, q, no_codes, code, cfg, eval);
+            n_eval = count.count();
+        }
+        INFO("variant " << variant);
+        CHECK(n_step == 0);
+        CHECK(n_eval == 0);
+        // F moves only when it is trained; the free code moves.
+        CHECK((s2.decoder.params != before) == cfg.train_decoder);
+        if (variant == 1) CHECK(s2.code != code0);
+    }
+    Eigen::setNbThreads(threads);
+}

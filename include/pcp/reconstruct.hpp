@@ -18,6 +18,39 @@
 
 namespace pcp {
 
+/// The paper's ablations of stage 2 (section 4.4, "Ablation Studies", table 9, and "Specializing
+/// Context Prior", table 10), as switches of the query-network fitting. Names (CLI --ablation):
+///
+/// | name            | paper row (table)          | q_l'                 | f'                       | F        |
+/// |-----------------|----------------------------|----------------------|--------------------------|----------|
+/// | `none`          | "Ours" / "Our specializing" | q_g + dq (Q)         | predicted by Q           | frozen   |
+/// | `no-shift`      | "No dq" (9)                | q_g                  | predicted by Q           | frozen   |
+/// | `direct`        | "Direct q_l'" (9)          | predicted by Q       | predicted by Q           | frozen   |
+/// | `free-code`     | "No f_l'" (9)              | q_g + dq (Q)         | one auto-decoded code    | frozen   |
+/// | `pointnet-code` | "No f_l' + f_l" (9)        | q_g + dq (Q)         | frozen encoder, region   | frozen   |
+/// | `no-prior`      | "No Prior" (10)            | q_g + dq (Q)         | predicted by Q           | fresh, trained |
+/// | `tune-prior`    | "Tune theta_2 + theta_3" (10) | q_g + dq (Q)      | predicted by Q           | prior, trained |
+///
+///  * direct: Q's point rows get the ordinary He initialisation of the head (not zero), so q_l'
+///    starts as a random function of q_g of about unit size, not near q_g: without the residual
+///    connection of eq. 3 nothing makes Q start at the identity, which is what the paper ablates.
+///  * free-code: one C-vector per shape, shared by every query, initialised N(0, 1/C) (DeepSDF's
+///    code initialisation) and optimised by Adam together with Q, same learning rate.
+///  * pointnet-code: the cloud (unit box) is split with the prior's own region grid and
+///    normalisation (prior.regions); each region's condition is the frozen encoder applied to all
+///    of its points in region coordinates (computed once). A query takes the condition of the
+///    grid cell that contains it (clamped to the grid); a cell without a region (too few points)
+///    takes the region whose cell is nearest (cell-index distance, then lowest index).
+///  * no-prior: F has the prior's shape but is freshly initialised (geometric, seeded); without a
+///    prior file no self-prior is trained. Both no-prior and tune-prior train F with Q by Adam,
+///    same learning rate, through the per-query double backprop (nn::decoder_double_backward).
+enum class QueryAblation { None, NoShift, Direct, FreeCode, PointNetCode, NoPrior, TunePrior };
+
+/// "none" | "no-shift" | "direct" | "free-code" | "pointnet-code" | "no-prior" | "tune-prior";
+/// throws pcp::Error (listing the names) on anything else.
+QueryAblation parse_query_ablation(const std::string& name);
+std::string to_string(QueryAblation ablation);
+
 struct QueryFitOptions {
     SamplingOptions sampling;        ///< global queries around the cloud (paper: 40 per point)
     int width = 512;                 ///< Q's width (paper: 512)
@@ -28,7 +61,8 @@ struct QueryFitOptions {
     LrScheduleKind schedule = LrScheduleKind::Constant;
     std::int64_t warmup_steps = 0;
     double clip_norm = 0.0;
-    bool zero_shift_init = true;     ///< start with dq = 0 (q_l' = q_g)
+    bool zero_shift_init = true;     ///< start with dq = 0 (q_l' = q_g); modes with a shift only
+    QueryAblation ablation = QueryAblation::None;  ///< the paper's ablations (see above)
     std::uint64_t seed = 1;
     std::int64_t progress_every = 100;
     std::string checkpoint_path;     ///< "" = no checkpoints
@@ -37,7 +71,9 @@ struct QueryFitOptions {
     ProgressCallback progress;       ///< stage "query-net"; false = stop (a checkpoint is written)
 };
 
-/// The resumable stage-2 fitter (F frozen). Works in the unit box of the given cloud.
+/// The resumable stage-2 fitter (F frozen, or trained with Q in the no-prior / tune-prior
+/// ablations). Works in the unit box of the given cloud. Checkpoints hold Q, its Adam state, and
+/// the mode's extra state (F and its Adam state when trained; the free code and its Adam state).
 class QueryNetFitter {
 public:
     /// @param[in] points  N x 3 input cloud (input frame); checked and normalised here.
@@ -87,7 +123,8 @@ struct ReconstructReport {
 };
 
 /// Point cloud (input frame) -> mesh (input frame, outward faces). With `prior` null a self-prior
-/// is trained on the cloud first (options.self_prior).
+/// is trained on the cloud first (options.self_prior), except in the no-prior ablation, which only
+/// takes the network sizes from options.self_prior.
 Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior, const ReconstructOptions& options,
                  ReconstructReport* report = nullptr);
 

@@ -1,5 +1,6 @@
-// Forward passes, the input-gradient sweep, parameter backward, the stage-1 double backprop
-// (METHOD.md §4) and the initialisations of the networks in pcp/nn/networks.hpp.
+// Forward passes, the input-gradient sweep, parameter backward, the double backprop of the
+// pulling loss (METHOD.md §4; shared condition in stage 1, per-query condition when stage 2 trains
+// F) and the initialisations of the networks in pcp/nn/networks.hpp.
 //
 // Letters: N = batch, H = width, L = hidden layers, C = condition size. Buffers are column-major
 // `features x N`; `.leftCols(n)` selects the current batch inside a cache sized for the maximum.
@@ -12,6 +13,10 @@
 //    is asked for (stage 2);
 //  * the tangent is zero on the condition branch, so hidden 1's tangent product uses only the
 //    q-half columns of W_1, and the f-half weight gradient is rank one: (D_1 lambda) h_f^T;
+//  * a per-query condition (stage 2 with F trained, an ablation) costs the double backprop two
+//    more GEMMs (dL/dW_1b and dL/dW_b); only that path pays them;
+//  * an auto-decoded code (one condition column, F frozen) gets sum_i lambda_i g_f^(i) from
+//    D_1 lambda (O(H^2)) instead of the per-query g_f (O(H C N));
 //  * dL/dx is never formed at a network's first layer (inputs are data).
 #include "pcp/nn/networks.hpp"
 
@@ -197,6 +202,7 @@ void branch_mlp_forward(const BranchMlp<S>& net, const CMatRef<S>& xa, const CMa
         PCP_CHECK(xb.size() == 0, "nn::branch_mlp_forward: this network has no second input");
     c.n = static_cast<int>(n);
     c.shared_b = sh.in_b > 0 && xb.cols() == 1;
+    c.grad_b = false;
 
     // Branches: h_a = relu(W_a x_a + b_a) (H x N); h_b = relu(W_b x_b + b_b).
     auto A0a = c.a0.topRows(H).leftCols(n);
@@ -289,6 +295,7 @@ void decoder_input_grad(const BranchMlp<S>& net, BranchMlpCache<S>& c, bool want
     if (want_b)
         gemm<S>(c.g_b.leftCols(n), net.W(1), c.delta[0].bottomRows(H).leftCols(n), S(1), S(0),
                 Trans::Yes);
+    c.grad_b = want_b;
 }
 
 template <class S>
@@ -356,6 +363,18 @@ void branch_mlp_backward(const BranchMlp<S>& net, BranchMlpCache<S>& c, const CM
     linear_backward_params<S>(lay.W(G, 0), lay.b(G, 0), D0a, xa, mode);
 }
 
+namespace {
+
+template <class S>
+void add_or_set(Eigen::Map<Mat<S>> dst, const Mat<S>& src, GradMode mode) {
+    if (mode == GradMode::Overwrite)
+        dst = src;
+    else
+        dst += src;
+}
+
+}  // namespace
+
 template <class S>
 void decoder_double_backward(const BranchMlp<S>& net, BranchMlpCache<S>& c, const CMatRef<S>& q,
                              const CMatRef<S>& f, const CVecRef<S>& dL_ds, const CMatRef<S>& dL_dg,
@@ -365,16 +384,21 @@ void decoder_double_backward(const BranchMlp<S>& net, BranchMlpCache<S>& c, cons
     const ParamLayout& lay = net.layout;
     const int H = sh.width;
     const int L = sh.depth;
+    const int C = sh.in_b;
     const Eigen::Index n = c.n;
     check_backward_cache(c, "nn::decoder_double_backward");
-    PCP_CHECK(sh.out == 1 && sh.in_b > 0 && c.shared_b,
-              "nn::decoder_double_backward: needs the decoder F (out == 1, a condition branch) "
-              "run with one condition column shared by the batch (one region per step)");
-    PCP_CHECK(n >= 1 && q.rows() == sh.in_a && q.cols() == n && f.rows() == sh.in_b &&
-                  f.cols() == 1 && dL_ds.size() == n && dL_dg.rows() == sh.in_a &&
-                  dL_dg.cols() == n && dL_dtheta.size() == lay.size() && dL_df.size() == sh.in_b,
+    PCP_CHECK(sh.out == 1 && sh.in_b > 0,
+              "nn::decoder_double_backward: needs the decoder F (out == 1, a condition branch)");
+    const bool shared = c.shared_b;
+    PCP_CHECK(n >= 1 && q.rows() == sh.in_a && q.cols() == n && f.rows() == C &&
+                  f.cols() == (shared ? 1 : n) && dL_ds.size() == n && dL_dg.rows() == sh.in_a &&
+                  dL_dg.cols() == n && dL_dtheta.size() == lay.size() &&
+                  (dL_df.size() == 0 || dL_df.size() == C || (!shared && dL_df.size() == C * n)),
               "nn::decoder_double_backward: shapes do not match the last forward pass (N = "
-                  << n << ")");
+                  << n << ", " << (shared ? "shared" : "per-query") << " condition)");
+    PCP_CHECK(shared || c.grad_b,
+              "nn::decoder_double_backward: a per-query condition needs decoder_input_grad with "
+              "want_b = true first (for the f-half d_0b)");
     S* G = dL_dtheta.data();
     const S beta = mode == GradMode::Overwrite ? S(0) : S(1);
     const auto lam = as_col<S>(dL_ds);                  // N x 1
@@ -409,27 +433,44 @@ void decoder_double_backward(const BranchMlp<S>& net, BranchMlpCache<S>& c, cons
     U = (A0a.array().rowwise() * lam_row).matrix() + (tangent ? S(1) : S(0)) * U;
     auto dW1 = lay.W(G, l1);
     gemm<S>(dW1.leftCols(H), D1, U, S(1), beta, Trans::No, Trans::Yes);
-    // r_1 = D_1 lambda = dL/db_1; the condition half is rank one: dL/dW_1b = r_1 h_f^T.
+    // r_1 = D_1 lambda = dL/db_1.
     gemm<S>(c.r1, D1, lam, S(1), S(0));
-    auto db1 = lay.b(G, l1);
-    if (mode == GradMode::Overwrite)
-        db1 = c.r1;
-    else
-        db1 += c.r1;
-    gemm<S>(dW1.rightCols(H), c.r1, c.hb_shared, S(1), beta, Trans::No, Trans::Yes);
-    // Condition branch (f -> H), one column: r_b = (W_1b^T r_1) .* m_b = sum_i lambda_i d_0b^(i);
-    // dL/dW_b = r_b f^T, dL/db_b = r_b, and dL/df = W_b^T r_b = sum_i lambda_i g_f^(i).
-    gemm<S>(c.rb, W1.rightCols(H), c.r1, S(1), S(0), Trans::Yes);
-    relu_backward<S>(c.rb, c.hb_shared);
-    gemm<S>(lay.W(G, 1), c.rb, f, S(1), beta, Trans::No, Trans::Yes);
-    auto dbb = lay.b(G, 1);
-    if (mode == GradMode::Overwrite)
-        dbb = c.rb;
-    else
-        dbb += c.rb;
-    {
-        Eigen::Map<Mat<S>> df(dL_df.data(), sh.in_b, 1);
-        gemm<S>(df, net.W(1), c.rb, S(1), beta, Trans::Yes);
+    add_or_set<S>(lay.b(G, l1), c.r1, mode);
+    if (shared) {
+        // The condition half is rank one: dL/dW_1b = r_1 h_f^T.
+        gemm<S>(dW1.rightCols(H), c.r1, c.hb_shared, S(1), beta, Trans::No, Trans::Yes);
+        // Condition branch (f -> H), one column: r_b = (W_1b^T r_1) .* m_b = sum_i lambda_i
+        // d_0b^(i); dL/dW_b = r_b f^T, dL/db_b = r_b, dL/df = W_b^T r_b = sum_i lambda_i g_f^(i).
+        gemm<S>(c.rb, W1.rightCols(H), c.r1, S(1), S(0), Trans::Yes);
+        relu_backward<S>(c.rb, c.hb_shared);
+        gemm<S>(lay.W(G, 1), c.rb, f, S(1), beta, Trans::No, Trans::Yes);
+        add_or_set<S>(lay.b(G, 1), c.rb, mode);
+        if (dL_df.size() > 0) {
+            Eigen::Map<Mat<S>> df(dL_df.data(), C, 1);
+            gemm<S>(df, net.W(1), c.rb, S(1), beta, Trans::Yes);
+        }
+    } else {
+        // Per-query condition (reusing U, H x N, as scratch):
+        // dL/dW_1b = D_1 (lambda .* H_f)^T.
+        const auto A0b = c.a0.bottomRows(H).leftCols(n);
+        const auto D0b = c.delta[0].bottomRows(H).leftCols(n);
+        U = (A0b.array().rowwise() * lam_row).matrix();
+        gemm<S>(dW1.rightCols(H), D1, U, S(1), beta, Trans::No, Trans::Yes);
+        // Condition branch: dL/dW_b = (D_0b .* lambda) F^T, dL/db_b = D_0b lambda.
+        U = (D0b.array().rowwise() * lam_row).matrix();
+        gemm<S>(lay.W(G, 1), U, f, S(1), beta, Trans::No, Trans::Yes);
+        gemm<S>(c.rb, D0b, lam, S(1), S(0));
+        add_or_set<S>(lay.b(G, 1), c.rb, mode);
+        if (dL_df.size() == C) {  // sum_i lambda_i g_f^(i) = W_b^T (D_0b lambda)
+            Eigen::Map<Mat<S>> df(dL_df.data(), C, 1);
+            gemm<S>(df, net.W(1), c.rb, S(1), beta, Trans::Yes);
+        } else if (dL_df.size() == C * n) {  // lambda_i g_f^(i) per query
+            Eigen::Map<Mat<S>> df(dL_df.data(), C, n);
+            if (mode == GradMode::Overwrite)
+                df = (c.g_b.leftCols(n).array().rowwise() * lam_row).matrix();
+            else
+                df += (c.g_b.leftCols(n).array().rowwise() * lam_row).matrix();
+        }
     }
 
     // Hidden 2..L: u_k = m_k .* (W_k u_{k-1}); dL/dW_k = D_k (lambda .* a_{k-1} + u_{k-1})^T;
@@ -460,6 +501,24 @@ void decoder_double_backward(const BranchMlp<S>& net, BranchMlpCache<S>& c, cons
         dwo.noalias() += Ucur.rowwise().sum();
     const S sum_lam = dL_ds.sum();
     G[lay.b_offset(lh)] = (mode == GradMode::Overwrite ? S(0) : G[lay.b_offset(lh)]) + sum_lam;
+}
+
+template <class S>
+void decoder_shared_condition_grad(const BranchMlp<S>& net, BranchMlpCache<S>& c,
+                                   const CVecRef<S>& dL_ds, VecRef<S> dL_df, GradMode mode) {
+    const BranchMlpShape& sh = net.shape;
+    const Eigen::Index n = c.n;
+    check_backward_cache(c, "nn::decoder_shared_condition_grad");
+    PCP_CHECK(sh.out == 1 && sh.in_b > 0 && c.shared_b && n >= 1 && dL_ds.size() == n &&
+                  dL_df.size() == sh.in_b,
+              "nn::decoder_shared_condition_grad: needs the decoder F run with one condition "
+              "column shared by the batch, lambda of size N = " << n << " and dL_df of size C");
+    const int H = sh.width;
+    gemm<S>(c.r1, c.delta[1].leftCols(n), as_col<S>(dL_ds), S(1), S(0));
+    gemm<S>(c.rb, net.W(layer_hidden(sh, 1)).rightCols(H), c.r1, S(1), S(0), Trans::Yes);
+    relu_backward<S>(c.rb, c.hb_shared);
+    Eigen::Map<Mat<S>> df(dL_df.data(), sh.in_b, 1);
+    gemm<S>(df, net.W(1), c.rb, S(1), mode == GradMode::Overwrite ? S(0) : S(1), Trans::Yes);
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -629,6 +688,8 @@ void init_pointnet(PointNet<S>& E, Rng& rng) {
                                              const CMatRef<S>&, const CMatRef<S>&,                 \
                                              const CVecRef<S>&, const CMatRef<S>&, VecRef<S>,      \
                                              VecRef<S>, GradMode, bool);                           \
+    template void decoder_shared_condition_grad<S>(const BranchMlp<S>&, BranchMlpCache<S>&,        \
+                                                   const CVecRef<S>&, VecRef<S>, GradMode);        \
     template void pointnet_forward<S>(const PointNet<S>&, const CMatRef<S>&, PointNetCache<S>&);   \
     template void pointnet_backward<S>(const PointNet<S>&, PointNetCache<S>&, const CMatRef<S>&,   \
                                        const CVecRef<S>&, VecRef<S>, GradMode);                    \

@@ -58,29 +58,67 @@ double Stage1Workspace<S>::loss_and_grad(const PointNet<S>& E, const BranchMlp<S
 // Stage 2
 // ------------------------------------------------------------------------------------------------
 
+BranchMlpShape stage2_query_shape(const Stage2Config& config, int cond, int width, int depth,
+                                  int codes) {
+    return BranchMlpShape{3, codes, width, depth, config.query_outputs(cond)};
+}
+
 template <class S>
 Stage2Workspace<S>::Stage2Workspace(const BranchMlpShape& qs, const BranchMlpShape& d,
-                                    int max_queries)
-    : qn(qs, max_queries), dec(d, max_queries), q_local(3, max_queries), dL_ds(max_queries) {
-    PCP_CHECK(d.out == 1 && d.in_a == 3 && d.in_b >= 1 && qs.in_a == 3 && qs.out == 3 + d.in_b,
-              "nn::Stage2Workspace: the query network must output 3 + C = " << 3 + d.in_b
-                                                                             << " values, got "
-                                                                             << qs.out);
+                                    int max_queries, Stage2Config cfg)
+    : config(cfg), qn(qs, max_queries), dec(d, max_queries), q_local(3, max_queries),
+      dL_ds(max_queries), dL_dg(3, cfg.train_decoder ? max_queries : 0) {
+    PCP_CHECK(d.out == 1 && d.in_a == 3 && d.in_b >= 1 && qs.in_a == 3 &&
+                  cfg.query_outputs(d.in_b) >= 1 && qs.out == cfg.query_outputs(d.in_b),
+              "nn::Stage2Workspace: the query network must output 3 + C = "
+                  << 3 + d.in_b << " values for the method, " << cfg.query_outputs(d.in_b)
+                  << " for this configuration; got " << qs.out);
 }
 
 namespace {
 
+/// F's condition input for the configuration (see Stage2Config).
 template <class S>
-void stage2_forward(Stage2Workspace<S>& w, const BranchMlp<S>& Q, const BranchMlp<S>& F,
-                    const CMatRef<S>& q_g, const CMatRef<S>& codes) {
+CMatRef<S> stage2_condition(const Stage2Config& cfg, const BranchMlpCache<S>& qn, int C,
+                            const CMatRef<S>& cond, Eigen::Index n) {
+    switch (cfg.condition) {
+        case QueryCondition::Predicted:
+            return CMatRef<S>(qn.out.middleRows(cfg.point == QueryPoint::Identity ? 0 : 3, C).leftCols(n));
+        case QueryCondition::FreeCode:
+            PCP_CHECK(cond.rows() == C && cond.cols() == 1,
+                      "nn::stage 2: the free code must be C x 1 (C = " << C << "), got "
+                                                                      << cond.rows() << "x" << cond.cols());
+            return cond;
+        case QueryCondition::Given:
+            PCP_CHECK(cond.rows() == C && cond.cols() == n,
+                      "nn::stage 2: the given condition must be C x N = " << C << "x" << n << ", got "
+                                                                         << cond.rows() << "x" << cond.cols());
+            return cond;
+    }
+    PCP_FAIL("nn::stage 2: unknown condition source");
+}
+
+/// (Q's out) -> q_l' in `q_local`; F forward at (q_l', f'); F's input-gradient sweep.
+template <class S>
+void stage2_forward(const Stage2Config& cfg, BranchMlpCache<S>& qn, BranchMlpCache<S>& dec,
+                    Mat<S>& q_local, const BranchMlp<S>& Q, const BranchMlp<S>& F,
+                    const CMatRef<S>& q_g, const CMatRef<S>& codes, const CMatRef<S>& cond,
+                    bool with_grad) {
     const Eigen::Index n = q_g.cols();
-    // (dq, f') = Q(q_g); q_l' = q_g + dq.
-    branch_mlp_forward(Q, q_g, codes, w.qn);
-    w.q_local.leftCols(n) = q_g + w.qn.out.topRows(3).leftCols(n);
-    // s = F(q_l', f'); (g_q, g_f) = dF/d(q_l', f').
-    branch_mlp_forward<S>(F, w.q_local.leftCols(n), w.qn.out.bottomRows(F.shape.in_b).leftCols(n),
-                          w.dec);
-    decoder_input_grad(F, w.dec, true);
+    branch_mlp_forward(Q, q_g, codes, qn);
+    switch (cfg.point) {
+        case QueryPoint::Shift: q_local.leftCols(n) = q_g + qn.out.topRows(3).leftCols(n); break;
+        case QueryPoint::Identity: q_local.leftCols(n) = q_g; break;
+        case QueryPoint::Direct: q_local.leftCols(n) = qn.out.topRows(3).leftCols(n); break;
+    }
+    branch_mlp_forward<S>(F, q_local.leftCols(n), stage2_condition<S>(cfg, qn, F.shape.in_b, cond, n), dec);
+    if (with_grad) {
+        // ds/df per query is needed to train a predicted f', and (as d_0b) for F's per-query
+        // double backprop; a shared code's sum needs neither (decoder_shared_condition_grad).
+        const bool want_b = cfg.condition == QueryCondition::Predicted ||
+                            (cfg.condition == QueryCondition::Given && cfg.train_decoder);
+        decoder_input_grad(F, dec, want_b);
+    }
 }
 
 }  // namespace
@@ -88,7 +126,13 @@ void stage2_forward(Stage2Workspace<S>& w, const BranchMlp<S>& Q, const BranchMl
 template <class S>
 double Stage2Workspace<S>::loss(const BranchMlp<S>& Q, const BranchMlp<S>& F, const CMatRef<S>& q_g,
                                 const CMatRef<S>& t, const CMatRef<S>& codes) {
-    stage2_forward(*this, Q, F, q_g, codes);
+    return loss(Q, F, q_g, t, codes, Mat<S>());
+}
+
+template <class S>
+double Stage2Workspace<S>::loss(const BranchMlp<S>& Q, const BranchMlp<S>& F, const CMatRef<S>& q_g,
+                                const CMatRef<S>& t, const CMatRef<S>& codes, const CMatRef<S>& cond) {
+    stage2_forward(config, qn, dec, q_local, Q, F, q_g, codes, cond, true);
     const Eigen::Index n = q_g.cols();
     return pull_loss<S>(q_g, dec.out.leftCols(n), dec.g_a.leftCols(n), t, dL_ds.head(0),
                         dec.tan0.leftCols(0));
@@ -98,19 +142,46 @@ template <class S>
 double Stage2Workspace<S>::loss_and_grad(const BranchMlp<S>& Q, const BranchMlp<S>& F,
                                          const CMatRef<S>& q_g, const CMatRef<S>& t,
                                          const CMatRef<S>& codes, VecRef<S> dL_dQ) {
-    stage2_forward(*this, Q, F, q_g, codes);
+    PCP_CHECK(config.is_method(), "nn::Stage2Workspace: this configuration needs the general "
+                                  "loss_and_grad (condition, F and code gradients)");
+    return loss_and_grad(Q, F, q_g, t, codes, Mat<S>(), dL_dQ, dL_ds.head(0), dL_ds.head(0));
+}
+
+template <class S>
+double Stage2Workspace<S>::loss_and_grad(const BranchMlp<S>& Q, const BranchMlp<S>& F,
+                                         const CMatRef<S>& q_g, const CMatRef<S>& t,
+                                         const CMatRef<S>& codes, const CMatRef<S>& cond,
+                                         VecRef<S> dL_dQ, VecRef<S> dL_dF, VecRef<S> dL_dcond) {
     const Eigen::Index n = q_g.cols();
     const int C = F.shape.in_b;
-    // Pulling loss at q_g (paper eq. 5): only lambda is needed -- g is piecewise constant in
-    // (q_l', f'), so dL/dq_l' = lambda g_q and dL/df' = lambda g_f (METHOD.md §4).
+    const bool free_code = config.condition == QueryCondition::FreeCode;
+    PCP_CHECK(dL_dF.size() == (config.train_decoder ? F.layout.size() : 0) &&
+                  dL_dcond.size() == (free_code ? C : 0),
+              "nn::Stage2Workspace: dL_dF must have " << (config.train_decoder ? F.layout.size() : 0)
+                                                      << " entries and dL_dcond " << (free_code ? C : 0));
+    stage2_forward(config, qn, dec, q_local, Q, F, q_g, codes, cond, true);
+    // Pulling loss at q_g (paper eq. 5). Q needs only lambda -- g is piecewise constant in
+    // (q_l', f'), so dL/dq_l' = lambda g_q and dL/df' = lambda g_f (METHOD.md §4); F's weights
+    // (when trained) also need v = dL/dg.
     const double L = pull_loss<S>(q_g, dec.out.leftCols(n), dec.g_a.leftCols(n), t, dL_ds.head(n),
-                                  dec.tan0.leftCols(0));
+                                  dL_dg.leftCols(config.train_decoder ? n : 0));
     const auto lam_row = dL_ds.head(n).transpose().array();
     auto seed = qn.dL_dout.leftCols(n);
-    seed.topRows(3) = (dec.g_a.leftCols(n).array().rowwise() * lam_row).matrix();
-    seed.bottomRows(C) = (dec.g_b.leftCols(n).array().rowwise() * lam_row).matrix();
-    // Backprop into Q only.
+    int row = 0;
+    if (config.point != QueryPoint::Identity) {  // dq or q_l' itself: dq_l'/d(rows 0..2) = I
+        seed.topRows(3) = (dec.g_a.leftCols(n).array().rowwise() * lam_row).matrix();
+        row = 3;
+    }
+    if (config.condition == QueryCondition::Predicted)
+        seed.middleRows(row, C) = (dec.g_b.leftCols(n).array().rowwise() * lam_row).matrix();
     branch_mlp_backward<S>(Q, qn, q_g, codes, seed, dL_dQ, GradMode::Overwrite);
+    if (config.train_decoder) {
+        // F's weights through s and g; a shared code's gradient comes out of the same pass.
+        decoder_double_backward<S>(F, dec, q_local.leftCols(n), stage2_condition<S>(config, qn, C, cond, n),
+                                   dL_ds.head(n), dL_dg.leftCols(n), dL_dF, dL_dcond, GradMode::Overwrite);
+    } else if (free_code) {
+        decoder_shared_condition_grad<S>(F, dec, dL_ds.head(n), dL_dcond, GradMode::Overwrite);
+    }
     return L;
 }
 
@@ -140,6 +211,19 @@ Eigen::Block<Mat<S>, 1, Eigen::Dynamic> global_sdf_eval(const BranchMlp<S>& Q,
                            c.dec);
 }
 
+template <class S>
+Eigen::Block<Mat<S>, 1, Eigen::Dynamic> global_sdf_eval(const BranchMlp<S>& Q,
+                                                        const BranchMlp<S>& F,
+                                                        const CMatRef<S>& q_g,
+                                                        const CMatRef<S>& codes,
+                                                        const CMatRef<S>& cond,
+                                                        const Stage2Config& config,
+                                                        GlobalSdfCache<S>& c) {
+    PCP_CHECK(F.shape.out == 1, "nn::global_sdf_eval: needs the decoder (out == 1)");
+    stage2_forward(config, c.qn, c.dec, c.q_local, Q, F, q_g, codes, cond, false);
+    return c.dec.out.template block<1, Eigen::Dynamic>(0, 0, 1, q_g.cols());
+}
+
 // ------------------------------------------------------------------------------------------------
 // Trainers
 // ------------------------------------------------------------------------------------------------
@@ -166,17 +250,39 @@ double Stage1Trainer<S>::step(const CMatRef<S>& q, const CMatRef<S>& t, const CM
 
 template <class S>
 Stage2Trainer<S>::Stage2Trainer(BranchMlp<S> qn, BranchMlp<S> d, int max_queries,
-                                OptimOptions o)
-    : query_net(std::move(qn)), decoder(std::move(d)), adam_query(query_net.layout.size()),
-      options(o), workspace(query_net.shape, decoder.shape, max_queries),
-      grad_query(query_net.layout.size()) {}
+                                OptimOptions o, Stage2Config cfg)
+    : config(cfg), query_net(std::move(qn)), decoder(std::move(d)),
+      code(Vec<S>::Zero(cfg.condition == QueryCondition::FreeCode ? decoder.shape.in_b : 0)),
+      adam_query(query_net.layout.size()),
+      adam_decoder(cfg.train_decoder ? decoder.layout.size() : 0), adam_code(code.size()),
+      options(o), workspace(query_net.shape, decoder.shape, max_queries, cfg),
+      grad_query(query_net.layout.size()),
+      grad_decoder(cfg.train_decoder ? decoder.layout.size() : 0), grad_code(code.size()) {}
 
 template <class S>
 double Stage2Trainer<S>::step(const CMatRef<S>& q_g, const CMatRef<S>& t,
                               const CMatRef<S>& codes) {
-    const double L = workspace.loss_and_grad(query_net, decoder, q_g, t, codes, grad_query);
-    last_grad_norm = clip_grad_norm<S>({&grad_query}, options.clip_norm);
-    adam_step<S>(query_net.params, grad_query, adam_query, options.lr.at(steps), options.adam);
+    PCP_CHECK(config.condition != QueryCondition::Given,
+              "nn::Stage2Trainer: a Given condition must be passed to step()");
+    return step(q_g, t, codes, Eigen::Map<const Mat<S>>(code.data(), code.size(), code.size() ? 1 : 0));
+}
+
+template <class S>
+double Stage2Trainer<S>::step(const CMatRef<S>& q_g, const CMatRef<S>& t, const CMatRef<S>& codes,
+                              const CMatRef<S>& cond) {
+    double L;
+    if (config.is_method()) {  // the method's path, unchanged
+        L = workspace.loss_and_grad(query_net, decoder, q_g, t, codes, grad_query);
+        last_grad_norm = clip_grad_norm<S>({&grad_query}, options.clip_norm);
+    } else {
+        L = workspace.loss_and_grad(query_net, decoder, q_g, t, codes, cond, grad_query,
+                                    grad_decoder, grad_code);
+        last_grad_norm = clip_grad_norm<S>({&grad_query, &grad_decoder, &grad_code}, options.clip_norm);
+    }
+    const double lr = options.lr.at(steps);
+    adam_step<S>(query_net.params, grad_query, adam_query, lr, options.adam);
+    if (config.train_decoder) adam_step<S>(decoder.params, grad_decoder, adam_decoder, lr, options.adam);
+    if (code.size() > 0) adam_step<S>(code, grad_code, adam_code, lr, options.adam);
     ++steps;
     return L;
 }
@@ -190,7 +296,10 @@ double Stage2Trainer<S>::step(const CMatRef<S>& q_g, const CMatRef<S>& t,
         const BranchMlp<S>&, const CMatRef<S>&, const CMatRef<S>&, BranchMlpCache<S>&);            \
     template Eigen::Block<Mat<S>, 1, Eigen::Dynamic> global_sdf_eval<S>(                           \
         const BranchMlp<S>&, const BranchMlp<S>&, const CMatRef<S>&, const CMatRef<S>&,            \
-        GlobalSdfCache<S>&);
+        GlobalSdfCache<S>&);                                                                       \
+    template Eigen::Block<Mat<S>, 1, Eigen::Dynamic> global_sdf_eval<S>(                           \
+        const BranchMlp<S>&, const BranchMlp<S>&, const CMatRef<S>&, const CMatRef<S>&,            \
+        const CMatRef<S>&, const Stage2Config&, GlobalSdfCache<S>&);
 PCP_NN_INSTANTIATE_STEPS(float)
 PCP_NN_INSTANTIATE_STEPS(double)
 #undef PCP_NN_INSTANTIATE_STEPS

@@ -139,6 +139,7 @@ struct BranchMlpCache {
     int max_batch = 0;
     int n = 0;              ///< batch of the last forward pass
     bool shared_b = false;  ///< x_b was one column shared by the whole batch (stage 1)
+    bool grad_b = false;    ///< the last decoder_input_grad computed the f-half d_0b (want_b)
 
     Mat<S> a0;             ///< (H or 2H) x max: [relu(W_a x_a + b_a); relu(W_b x_b + b_b)]
                            ///< (bottom half unused when x_b is shared)
@@ -185,18 +186,31 @@ void branch_mlp_backward(const BranchMlp<S>& net, BranchMlpCache<S>& cache, cons
                          const CMatRef<S>& xb, const CMatRef<S>& dL_dout, VecRef<S> dL_dtheta,
                          GradMode mode);
 
-/// Stage-1 double backprop of the pulling loss through the decoder F (METHOD.md §4), after
-/// branch_mlp_forward (with a shared condition column) and decoder_input_grad. The loss reaches
-/// the weights through s (seed lambda) and through g = ds/dq (seed v): the tangent u_0 = v is
-/// propagated forward with the same masks, u_k = m_k .* (W_k u_{k-1}), and
+/// Double backprop of the pulling loss through the decoder F (METHOD.md §4), after
+/// branch_mlp_forward and decoder_input_grad. The loss reaches the weights through s (seed
+/// lambda) and through g = ds/dq (seed v): the tangent u_0 = [m_0a .* (W_a v); 0] (zero on the
+/// condition branch, f does not move along v) is propagated forward with the same masks,
+/// u_k = m_k .* (W_k u_{k-1}), and
 ///   dL/dW_k = sum_i d_k (lambda_i a_{k-1} + u_{k-1})^T,  dL/db_k = sum_i lambda_i d_k,
 ///   dL/dw_o = sum_i (lambda_i a_L + u_L),               dL/db_o = sum_i lambda_i,
-///   dL/df   = sum_i lambda_i g_f^(i)     (the tangent is zero on the condition branch).
-/// @param[in]  q          3 x N region queries; f: C x 1 condition (as in the forward pass).
+/// with a_0 = [h_q; h_f] and, for the branches, a_{-1} = q (tangent v) and f (tangent 0):
+///   dL/dW_a = D_0a (lambda q + v)^T,  dL/dW_b = D_0b (lambda f)^T   (D_0b = the f-half d_0b).
+/// Since u_0b = 0, the condition branch and the f-half of hidden 1 receive gradient through
+/// lambda only (their weights move the masks, not the tangent).
+///
+/// Two condition layouts:
+///  * shared (stage 1: one condition per region, f is C x 1): the f-half of hidden 1 is rank
+///    one, dL/dW_1b = (D_1 lambda) h_f^T, and the condition branch is one column;
+///  * per query (stage 2 with F trained: f is C x N): dL/dW_1b = D_1 (lambda .* H_f)^T and
+///    dL/dW_b = (D_0b .* lambda) F^T; needs decoder_input_grad(..., want_b = true) (for D_0b).
+/// @param[in]  q          3 x N, F's query input (stage 1: region queries; stage 2: q_l').
+/// @param[in]  f          C x 1 (shared) or C x N, as in the forward pass.
 /// @param[in]  dL_ds      N, lambda (from pull_loss).
 /// @param[in]  dL_dg      3 x N, v (from pull_loss).
 /// @param[out] dL_dtheta  F's parameter gradient (layout.size()).
-/// @param[out] dL_df      C, the gradient sent to the encoder.
+/// @param[out] dL_df      size C: sum_i lambda_i g_f^(i) (the encoder's or a shared code's
+///                        gradient); size C x N (per-query layout only, column-major):
+///                        lambda_i g_f^(i) per column; size 0: not computed.
 /// @param[in]  test_drop_tangent  TEST ONLY: drop the tangent terms (u, v) from the weight
 ///             gradients, a planted bug that the gradient checker must reject.
 template <class S>
@@ -204,6 +218,14 @@ void decoder_double_backward(const BranchMlp<S>& net, BranchMlpCache<S>& cache,
                              const CMatRef<S>& q, const CMatRef<S>& f, const CVecRef<S>& dL_ds,
                              const CMatRef<S>& dL_dg, VecRef<S> dL_dtheta, VecRef<S> dL_df,
                              GradMode mode, bool test_drop_tangent = false);
+
+/// dL/df = sum_i lambda_i g_f^(i) (C) for a condition column shared by the batch (F frozen, e.g.
+/// an auto-decoded code), after branch_mlp_forward (shared f) and decoder_input_grad (either
+/// want_b): r_1 = D_1 lambda, r_b = (W_1b^T r_1) .* m_b, dL/df = W_b^T r_b -- O(H N + H^2 + H C)
+/// instead of the per-query g_f's O(H C N).
+template <class S>
+void decoder_shared_condition_grad(const BranchMlp<S>& net, BranchMlpCache<S>& cache,
+                                   const CVecRef<S>& dL_ds, VecRef<S> dL_df, GradMode mode);
 
 // ------------------------------------------------------------------------------------------------
 // PointNet encoder

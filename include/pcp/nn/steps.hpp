@@ -7,6 +7,11 @@
 //    q_l' = q_g + dq; F(q_l', f') -> s, (g_q, g_f) = dF/d(q_l', f'); pulling loss at q_g ->
 //    lambda; dL/d(dq) = lambda g_q, dL/df' = lambda g_f; backprop into Q only (F is frozen: no
 //    F weight gradient is ever formed).
+//  * Stage 2 variants (Stage2Config, the paper's ablations of tables 9-10): q_l' = q_g (Q predicts
+//    no point), or q_l' predicted directly; f' one auto-decoded code shared by the batch, or given
+//    per query by the caller (e.g. the frozen encoder's region condition); and F trained together
+//    with Q (per-query double backprop of F, decoder_double_backward). Each variant does only
+//    the work it needs: the method's default path is the one above, unchanged.
 //
 // A *Workspace holds every buffer of one step, sized once (max queries / points); after the first
 // step nothing is allocated by libpcp (test_nn_steps.cpp counts allocations). The *Trainer classes
@@ -57,12 +62,45 @@ struct Stage1Workspace {
 // Stage 2
 // ------------------------------------------------------------------------------------------------
 
+/// Where F's query input q_l' comes from in stage 2.
+enum class QueryPoint {
+    Shift,     ///< q_l' = q_g + dq, dq = Q's rows 0..2 (the method, paper eq. 3)
+    Identity,  ///< q_l' = q_g; Q predicts no point ("No dq")
+    Direct,    ///< q_l' = Q's rows 0..2 ("Direct q_l'")
+};
+
+/// Where F's condition input f' comes from in stage 2.
+enum class QueryCondition {
+    Predicted,  ///< f' = Q's C rows after the point rows (the method)
+    FreeCode,   ///< one trained C-vector shared by all queries (auto-decoding, "No f'")
+    Given,      ///< C x N columns supplied by the caller, not trained ("No f' + f_l")
+};
+
+struct Stage2Config {
+    QueryPoint point = QueryPoint::Shift;
+    QueryCondition condition = QueryCondition::Predicted;
+    bool train_decoder = false;  ///< F is trained with Q ("No prior", "Tune theta_2 + theta_3")
+
+    /// Q's output rows for condition size C: [point (3, unless Identity); f' (C, if Predicted)].
+    int query_outputs(int C) const {
+        return (point == QueryPoint::Identity ? 0 : 3) + (condition == QueryCondition::Predicted ? C : 0);
+    }
+    bool is_method() const {
+        return point == QueryPoint::Shift && condition == QueryCondition::Predicted && !train_decoder;
+    }
+};
+
+/// Q's shape for a configuration: q_g (3) [+ one-hot code (K)] -> config.query_outputs(cond).
+BranchMlpShape stage2_query_shape(const Stage2Config& config, int cond, int width = 512,
+                                  int depth = 8, int codes = 0);
+
 template <class S>
 struct Stage2Workspace {
     Stage2Workspace(const BranchMlpShape& query_net, const BranchMlpShape& decoder,
-                    int max_queries);
+                    int max_queries, Stage2Config config = {});
 
-    /// Loss of a batch of global queries and the gradient of Q's parameters (overwritten).
+    /// The method (default config): loss of a batch of global queries and the gradient of Q's
+    /// parameters (overwritten).
     /// @param[in]  q_g    3 x N global queries; t: 3 x N targets.
     /// @param[in]  codes  K x N one-hot shape codes, or 0 x 0 when Q has no code branch.
     /// @param[out] dL_dQ  query_net.layout.size().
@@ -70,14 +108,28 @@ struct Stage2Workspace {
                          const CMatRef<S>& q_g, const CMatRef<S>& t, const CMatRef<S>& codes,
                          VecRef<S> dL_dQ);
 
-    /// The loss only.
+    /// Any configuration.
+    /// @param[in]  cond      FreeCode: the code, C x 1; Given: C x N; Predicted: 0 x 0.
+    /// @param[out] dL_dQ     query_net.layout.size().
+    /// @param[out] dL_dF     decoder.layout.size() if config.train_decoder, else size 0.
+    /// @param[out] dL_dcond  FreeCode: C (sum_i lambda_i g_f^(i)); otherwise size 0.
+    double loss_and_grad(const BranchMlp<S>& query_net, const BranchMlp<S>& decoder,
+                         const CMatRef<S>& q_g, const CMatRef<S>& t, const CMatRef<S>& codes,
+                         const CMatRef<S>& cond, VecRef<S> dL_dQ, VecRef<S> dL_dF,
+                         VecRef<S> dL_dcond);
+
+    /// The loss only (cond as in loss_and_grad; the first form is the method's).
     double loss(const BranchMlp<S>& query_net, const BranchMlp<S>& decoder, const CMatRef<S>& q_g,
                 const CMatRef<S>& t, const CMatRef<S>& codes);
+    double loss(const BranchMlp<S>& query_net, const BranchMlp<S>& decoder, const CMatRef<S>& q_g,
+                const CMatRef<S>& t, const CMatRef<S>& codes, const CMatRef<S>& cond);
 
+    Stage2Config config;
     BranchMlpCache<S> qn;   ///< Q's activations; qn.dL_dout holds [lambda g_q; lambda g_f]
     BranchMlpCache<S> dec;  ///< F's activations and input-gradient sweep
-    Mat<S> q_local;         ///< 3 x N: q_l' = q_g + dq
+    Mat<S> q_local;         ///< 3 x N: q_l'
     Vec<S> dL_ds;           ///< N: lambda
+    Mat<S> dL_dg;           ///< 3 x N: v (only with train_decoder; 3 x 0 otherwise)
 };
 
 // ------------------------------------------------------------------------------------------------
@@ -91,13 +143,14 @@ Eigen::Block<Mat<S>, 1, Eigen::Dynamic> decoder_eval(const BranchMlp<S>& decoder
                                                      const CMatRef<S>& q, const CMatRef<S>& f,
                                                      BranchMlpCache<S>& cache);
 
-/// Buffers of global_sdf_eval for one thread.
+/// Buffers of global_sdf_eval for one thread (cond: room for a caller's per-query condition).
 template <class S>
 struct GlobalSdfCache {
     GlobalSdfCache(const BranchMlpShape& query_net, const BranchMlpShape& decoder, int max_batch)
         : qn(query_net, max_batch, false), dec(decoder, max_batch, false), q_local(3, max_batch) {}
     BranchMlpCache<S> qn, dec;
     Mat<S> q_local;
+    Mat<S> cond;  ///< C x max_batch when the caller gathers a Given condition here (sized by it)
 };
 
 /// The global SDF F_g(q_g) = F(q_g + dq, f') with (dq, f') = Q(q_g [, code]) (paper eq. 4):
@@ -107,6 +160,17 @@ Eigen::Block<Mat<S>, 1, Eigen::Dynamic> global_sdf_eval(const BranchMlp<S>& quer
                                                         const BranchMlp<S>& decoder,
                                                         const CMatRef<S>& q_g,
                                                         const CMatRef<S>& codes,
+                                                        GlobalSdfCache<S>& cache);
+
+/// The global SDF of any Stage2Config: F(q_l', f') with q_l' and f' formed as in training
+/// (cond: FreeCode C x 1, Given C x N, Predicted 0 x 0).
+template <class S>
+Eigen::Block<Mat<S>, 1, Eigen::Dynamic> global_sdf_eval(const BranchMlp<S>& query_net,
+                                                        const BranchMlp<S>& decoder,
+                                                        const CMatRef<S>& q_g,
+                                                        const CMatRef<S>& codes,
+                                                        const CMatRef<S>& cond,
+                                                        const Stage2Config& config,
                                                         GlobalSdfCache<S>& cache);
 
 // ------------------------------------------------------------------------------------------------
@@ -142,22 +206,31 @@ public:
 template <class S>
 class Stage2Trainer {
 public:
-    /// The decoder is copied and frozen.
+    /// The decoder is copied; it stays frozen unless config.train_decoder. With a FreeCode
+    /// condition the code starts at zero: set `code` before the first step (with F's zero
+    /// condition biases of the geometric initialisation, a zero code is a dead start -- every
+    /// f-branch ReLU is off, so the code's gradient is zero).
     Stage2Trainer(BranchMlp<S> query_net, BranchMlp<S> decoder, int max_queries,
-                  OptimOptions options = {});
+                  OptimOptions options = {}, Stage2Config config = {});
 
-    /// One step: gradient into Q, clipping, Adam on Q. codes: K x N or 0 x 0.
+    /// One step: gradients, clipping (over every trained vector), Adam on Q [, F, the code].
+    /// codes: K x N or 0 x 0. The first form is for Predicted and FreeCode conditions; the
+    /// second takes a Given condition (C x N).
     /// @return the loss before the update.
     double step(const CMatRef<S>& q_g, const CMatRef<S>& t, const CMatRef<S>& codes);
+    double step(const CMatRef<S>& q_g, const CMatRef<S>& t, const CMatRef<S>& codes,
+                const CMatRef<S>& cond);
 
+    Stage2Config config;
     BranchMlp<S> query_net;
-    const BranchMlp<S> decoder;
-    AdamState<S> adam_query;
+    BranchMlp<S> decoder;   ///< frozen unless config.train_decoder
+    Vec<S> code;            ///< FreeCode: the shared condition f' (C); size 0 otherwise
+    AdamState<S> adam_query, adam_decoder, adam_code;  ///< the last two sized only when used
     std::int64_t steps = 0;
     OptimOptions options;
     double last_grad_norm = 0;
     Stage2Workspace<S> workspace;
-    Vec<S> grad_query;
+    Vec<S> grad_query, grad_decoder, grad_code;
 };
 
 }  // namespace pcp::nn
