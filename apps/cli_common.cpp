@@ -10,9 +10,11 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -200,6 +202,37 @@ std::vector<std::string> collect_inputs(const std::vector<std::string>& args, co
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void add_sampling_options(cxxopts::Options& options, const std::string& group, const SamplingOptions& d) {
+    std::ostringstream spreads;
+    for (std::size_t i = 0; i < d.spreads.size(); ++i) spreads << (i ? "," : "") << d.spreads[i];
+    options.add_options(group)
+        ("spreads", "Query spreads in units of sigma_p, comma-separated (query j of a point uses spread j mod count)",
+         cxxopts::value<std::string>()->default_value(spreads.str()))
+        ("uniform-fraction", "Extra queries drawn uniformly in the grown bounding box, as a fraction of the others (0 = the paper)",
+         cxxopts::value<double>()->default_value(std::to_string(d.uniform_fraction)));
+}
+
+void apply_sampling_flags(const cxxopts::ParseResult& args, SamplingOptions& sampling) {
+    if (args.count("spreads")) {
+        std::vector<float> spreads;
+        std::istringstream in(args["spreads"].as<std::string>());
+        for (std::string item; std::getline(in, item, ',');) {
+            char* end = nullptr;
+            const float v = std::strtof(item.c_str(), &end);
+            if (item.empty() || *end != '\0' || !(v > 0.0f) || !std::isfinite(v))
+                throw UsageError("--spreads: '" + item + "' is not a positive number");
+            spreads.push_back(v);
+        }
+        if (spreads.empty()) throw UsageError("--spreads needs at least one value");
+        sampling.spreads = spreads;
+    }
+    if (args.count("uniform-fraction")) {
+        const double u = args["uniform-fraction"].as<double>();
+        if (!(u >= 0.0 && u <= 10.0)) throw UsageError("--uniform-fraction must be in [0, 10]");
+        sampling.uniform_fraction = static_cast<float>(u);
+    }
 }
 
 }  // namespace pcp::cli

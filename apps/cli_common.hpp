@@ -5,6 +5,7 @@
 #pragma once
 
 #include "pcp/progress.hpp"
+#include "pcp/sampling.hpp"
 #include "pcp/types.hpp"
 
 #include <cxxopts.hpp>
@@ -82,5 +83,12 @@ std::vector<std::string> collect_inputs(const std::vector<std::string>& args, co
 
 /// Seconds since `start`.
 double seconds_since(std::chrono::steady_clock::time_point start);
+
+/// Applies --spreads (comma-separated positive factors) and --uniform-fraction, when given, to
+/// `sampling`; throws UsageError for bad values.
+void apply_sampling_flags(const cxxopts::ParseResult& args, SamplingOptions& sampling);
+
+/// The two sampling options for add_options (their defaults taken from `d`).
+void add_sampling_options(cxxopts::Options& options, const std::string& group, const SamplingOptions& d);
 
 }  // namespace pcp::cli

@@ -51,7 +51,8 @@ int main(int argc, char** argv) {
             ("builtin-noise", "Noise of the embedded default shape", cxxopts::value<double>()->default_value(fmt(builtin_defaults.noise)));
         options.add_options("Self-prior (stage 1, when no --prior is given)")
             ("prior-epochs", "Self-prior epochs (passes over the input's regions)", cxxopts::value<int>()->default_value(std::to_string(d.self_prior.epochs)));
-    options.add_options("Query network (stage 2)")
+        pcp::cli::add_sampling_options(options, "Queries (both stages)", d.fit.sampling);
+        options.add_options("Query network (stage 2)")
             ("steps", "Query-network steps", cxxopts::value<long>()->default_value(std::to_string(d.fit.steps)))
             ("batch", "Queries per step", cxxopts::value<int>()->default_value(std::to_string(d.fit.queries_per_step)))
             ("lr", "Learning rate", cxxopts::value<double>()->default_value(fmt(d.fit.learning_rate)))
@@ -89,6 +90,8 @@ int main(int argc, char** argv) {
         } catch (const pcp::Error& e) {
             throw pcp::cli::UsageError(e.what());
         }
+        pcp::cli::apply_sampling_flags(args, o.fit.sampling);
+        pcp::cli::apply_sampling_flags(args, o.self_prior.sampling);
         if (args.count("checkpoint-every")) o.fit.checkpoint_every = args["checkpoint-every"].as<long>();
         if (args.count("progress-every")) o.fit.progress_every = args["progress-every"].as<long>();
         if (args.count("resolution")) o.resolution = args["resolution"].as<int>();

@@ -45,6 +45,7 @@ int main(int argc, char** argv) {
             ("min-region-points", "Regions with fewer points are skipped", cxxopts::value<long>()->default_value(std::to_string(d.regions.min_points)))
             ("queries-per-point", "Queries drawn around each point", cxxopts::value<int>()->default_value(std::to_string(d.sampling.queries_per_point)))
             ("queries-per-step", "Queries of one region per step", cxxopts::value<int>()->default_value(std::to_string(d.queries_per_step)));
+        pcp::cli::add_sampling_options(options, "Regions and queries", d.sampling);
         options.add_options("Networks and optimisation")
             ("width", "Decoder width H", cxxopts::value<int>()->default_value(std::to_string(d.network.width)))
             ("depth", "Decoder hidden layers L", cxxopts::value<int>()->default_value(std::to_string(d.network.depth)))
@@ -84,6 +85,7 @@ int main(int argc, char** argv) {
             set("clip", o.clip_norm);
             set("checkpoint-every", o.checkpoint_every);
             set("progress-every", o.progress_every);
+            pcp::cli::apply_sampling_flags(args, o.sampling);
             if (args.count("normalization")) o.regions.normalization = pcp::parse_region_normalization(args["normalization"].as<std::string>());
             if (args.count("schedule")) {
                 const std::string s = args["schedule"].as<std::string>();

@@ -187,3 +187,15 @@ TEST_CASE("cli: --ablation takes the paper's ablation names; others exit 2 with 
     CHECK(bad.err.find("unknown ablation 'no-dq'") != std::string::npos);
     CHECK(bad.err.find("pointnet-code") != std::string::npos);
 }
+
+TEST_CASE("cli: bad --spreads and --uniform-fraction exit 2 naming the flag", "[cli]") {
+    for (const std::string& program : {std::string("pcp_reconstruct"), std::string("pcp_train")}) {
+        const RunResult spreads = run(bin(program) + " --spreads 0.5,-1 x.ply");
+        INFO(program << " stderr: " << spreads.err);
+        CHECK(spreads.exit_code == 2);
+        CHECK(spreads.err.find("--spreads: '-1'") != std::string::npos);
+        const RunResult uniform = run(bin(program) + " --uniform-fraction -0.5 x.ply");
+        CHECK(uniform.exit_code == 2);
+        CHECK(uniform.err.find("--uniform-fraction") != std::string::npos);
+    }
+}
