@@ -1,5 +1,6 @@
 // pcp_eval PRED GT: compares a reconstructed mesh with ground truth using the paper's metrics
-// (METHOD.md section 6) under the p2s / shapenet / scene protocols; prints a table or JSON.
+// (METHOD.md section 6) under the p2s / shapenet / scene protocols; prints a table, JSON, or
+// tab-separated lines for scripts (--tsv).
 #include "cli_common.hpp"
 
 #include "pcp/error.hpp"
@@ -88,13 +89,15 @@ int main(int argc, char** argv) {
             ("thresholds", "F-score thresholds, comma-separated (default: the protocol's)", cxxopts::value<std::string>()->default_value(""))
             ("gt-points", "Read GT as a point cloud with normals even if it is a .ply")
             ("no-floor", "Skip the floor (GT against an independent sampling of itself)")
-            ("json", "Print JSON instead of a table");
+            ("json", "Print JSON instead of a table")
+            ("tsv", "Print one tab-separated line per metric: name, value, floor (\"-\" without one)");
         options.parse_positional({"pred", "gt"});
         pcp::cli::add_common_options(options);
         cxxopts::ParseResult args;
         pcp::cli::CommonFlags common;
         if (!pcp::cli::parse_command_line(options, argc, argv, args, common)) return 0;
         if (!args.count("pred") || !args.count("gt")) throw pcp::cli::UsageError("need PRED and GT");
+        if (args.count("json") && args.count("tsv")) throw pcp::cli::UsageError("--json and --tsv exclude each other");
 
         pcp::EvalOptions opts;
         try {
@@ -128,6 +131,30 @@ int main(int argc, char** argv) {
             return 0;
         }
         const bool floor = opts.with_floor && gt.is_mesh;
+        if (args.count("tsv")) {
+            // For scripts (bench/run_benchmarks.sh): fixed names, no quoting, one line each.
+            std::cout.precision(9);
+            auto line = [&](const std::string& name, double value, bool has_floor, double floor_value) {
+                std::cout << name << "\t" << value << "\t";
+                if (has_floor) std::cout << floor_value;
+                else std::cout << "-";
+                std::cout << "\n";
+            };
+            std::cout << "protocol\t" << pcp::to_string(opts.protocol) << "\t-\n";
+            line("samples", static_cast<double>(r.samples), false, 0);
+            line("frame_scale", r.frame_scale, false, 0);
+            line("chamfer_l1", r.metrics.chamfer_l1, floor, r.floor.chamfer_l1);
+            line("chamfer_l2", r.metrics.chamfer_l2, floor, r.floor.chamfer_l2);
+            line("chamfer_l2_x100", 100 * r.metrics.chamfer_l2, floor, 100 * r.floor.chamfer_l2);
+            line("normal_consistency", r.metrics.normal_consistency, floor, r.floor.normal_consistency);
+            line("hausdorff", r.metrics.hausdorff, floor, r.floor.hausdorff);
+            for (std::size_t i = 0; i < r.metrics.fscores.size(); ++i)
+                line("fscore@" + join_thresholds({r.metrics.fscores[i].threshold}), r.metrics.fscores[i].fscore, floor,
+                     floor ? r.floor.fscores[i].fscore : 0.0);
+            if (gt.is_mesh) line("scene_error", r.scene_error, false, 0);
+            std::cout << std::flush;
+            return 0;
+        }
         auto row = [&](const char* name, double value, double floor_value) {
             char buf[160];
             if (floor) std::snprintf(buf, sizeof buf, "| %-22s | %12.6g | %12.6g |", name, value, floor_value);
