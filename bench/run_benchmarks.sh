@@ -136,7 +136,13 @@ if [ -z "$out_dir" ]; then
     else out_dir=$(mktemp -d "${TMPDIR:-/tmp}/pcp_bench.XXXXXX") || die_usage "cannot create a temp dir"; fi
 fi
 out_abs=$(realpath -m "$out_dir")
-case "$out_abs/" in "$repo"/*) die_usage "--out $out_dir is inside the repository; meshes of the data must stay outside" ;; esac
+case "$out_abs/" in
+    "$repo"/*)
+        # Meshes of the data must never become part of the repository: only git-ignored places
+        # (such as build/) are allowed inside it.
+        git -C "$repo" check-ignore -q "$out_abs" 2>/dev/null ||
+            die_usage "--out $out_dir is inside the repository and not git-ignored; the data's meshes must stay out of it" ;;
+esac
 if [ $dry_run -eq 0 ]; then
     mkdir -p "$out_dir" || die_usage "cannot create $out_dir"
     markdown_dir=$(dirname "$markdown")
@@ -281,9 +287,16 @@ beats() {
 }
 
 machine_lines() {
-    local cpu cores mem cxx="" compiler="unknown" build_type="unknown" cache commit dirty=""
+    local cpu cores isa mem cxx="" compiler="unknown" build_type="unknown" cache commit dirty=""
     cpu=$(awk -F': ' '/^model name/ { print $2; exit }' /proc/cpuinfo 2>/dev/null)
     cores=$(nproc 2>/dev/null)
+    isa=$(awk '/^flags/ { for (i = 3; i <= NF; ++i) if ($i ~ /^(avx2|fma|avx512f|avx512_bf16|amx_tile)$/) s = s " " $i; print substr(s, 2); exit }' /proc/cpuinfo 2>/dev/null)
+    local isa_text="" flag label
+    for flag in avx2:AVX2 fma:FMA avx512f:AVX-512 avx512_bf16:AVX512-BF16 amx_tile:AMX; do
+        label=${flag#*:}
+        if [[ " $isa " == *" ${flag%%:*} "* ]]; then isa_text+=", $label"; else isa_text+=", no $label"; fi
+    done
+    isa_text=${isa_text#, }
     mem=$(awk '/^MemTotal/ { printf "%.0f GiB", $2 / 1048576 }' /proc/meminfo 2>/dev/null)
     cache="$bin_dir/../CMakeCache.txt"
     if [ -f "$cache" ]; then
@@ -294,7 +307,7 @@ machine_lines() {
     commit=$(git -C "$repo" rev-parse --short=12 HEAD 2>/dev/null || echo unknown)
     [ -n "$(git -C "$repo" status --porcelain --untracked-files=no 2>/dev/null)" ] && dirty=" (with uncommitted changes)"
     echo "- Date: $(date -u '+%Y-%m-%d %H:%M UTC')"
-    echo "- Machine: ${cpu:-unknown CPU}, $cores cores, ${mem:-unknown memory}; $(uname -sr)"
+    echo "- Machine: ${cpu:-unknown CPU}, $cores cores ($isa_text), ${mem:-unknown memory}; $(uname -sr)"
     echo "- Compiler: $compiler; build type ${build_type:-unknown} (\`$bin_dir\`)"
     echo "- libpcp commit: \`$commit\`$dirty"
     echo "- Data: \`$manifest\`; meshes and logs: \`$out_dir\`"
