@@ -34,7 +34,10 @@ readonly END_MARK='<!-- END run_benchmarks -->'
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo=$(cd "$here/.." && pwd)
 command_line="bench/run_benchmarks.sh"
-for arg in "$@"; do command_line+=" $(printf '%q' "$arg")"; done
+# Words that need no quoting are shown as they are (printf %q would escape the comma of --cases a,b).
+for arg in "$@"; do
+    if [[ "$arg" =~ ^[A-Za-z0-9_./,=:+@%-]+$ ]]; then command_line+=" $arg"; else command_line+=" $(printf '%q' "$arg")"; fi
+done
 
 manifest="$repo/../shared/data/MANIFEST.tsv"
 cases_filter=""
@@ -310,7 +313,7 @@ machine_lines() {
     echo "- Machine: ${cpu:-unknown CPU}, $cores cores ($isa_text), ${mem:-unknown memory}; $(uname -sr)"
     echo "- Compiler: $compiler; build type ${build_type:-unknown} (\`$bin_dir\`)"
     echo "- libpcp commit: \`$commit\`$dirty"
-    echo "- Data: \`$manifest\`; meshes and logs: \`$out_dir\`"
+    echo "- Data: \`$(realpath "$manifest")\`; meshes and logs: \`$out_dir\`"
 }
 
 # write_section DONE TOTAL : (re)writes the generated section of $markdown.
