@@ -42,6 +42,7 @@ PriorTrainOptions PriorTrainOptions::preset(const std::string& name) {
         o.learning_rate = 5e-4;
         o.schedule = LrScheduleKind::Cosine;
         o.warmup_steps = 100;
+        o.sampling.uniform_fraction = 0.1f;  // see QueryFitOptions presets and docs/BENCHMARKS.md
         return o;
     }
     if (name == "fast") {
@@ -56,6 +57,7 @@ PriorTrainOptions PriorTrainOptions::preset(const std::string& name) {
         o.learning_rate = 1e-3;
         o.schedule = LrScheduleKind::Cosine;
         o.warmup_steps = 50;
+        o.sampling.uniform_fraction = 0.1f;
         return o;
     }
     PCP_FAIL("unknown prior preset '" << name << "' (use paper, default or fast)");
