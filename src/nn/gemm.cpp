@@ -8,8 +8,8 @@
 // Eigen::nbThreads() > 1 and we are not already inside an OpenMP parallel region, C is cut into one
 // slab per thread (columns when n >= m, else rows) and each thread runs the sequential kernel on
 // its slab with its own buffers; only the operand that is shared by all slabs is packed once per
-// thread (a cost of 1/slab-width of the FLOPs). The BLAS back end (PCP_WITH_BLAS, OpenBLAS) calls
-// cblas_?gemm with the same thread count; OpenBLAS allocates from its own persistent pool.
+// thread (a cost of 1/slab-width of the FLOPs). The BLAS back end (PCP_WITH_BLAS, OpenBLAS) runs
+// cblas_?gemm single-threaded on the same slabs; OpenBLAS packs into its own persistent pool.
 #include "pcp/nn/gemm.hpp"
 
 #include "pcp/error.hpp"

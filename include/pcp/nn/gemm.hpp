@@ -6,9 +6,12 @@
 //     reused), so that a training step allocates nothing; multi-threaded over OpenMP by splitting
 //     C into one slab per thread when Eigen::nbThreads() > 1.
 //   - Blas (built when CMake finds OpenBLAS, option PCP_BLAS=AUTO|ON|OFF): cblas_sgemm/dgemm,
-//     run with the same thread count (Eigen::nbThreads()); OpenBLAS keeps its own buffer pool.
+//     single-threaded OpenBLAS on each thread's slab of C under the same OpenMP split and thread
+//     count (OpenBLAS's own threaded driver mallocs on every call); OpenBLAS's packing buffers
+//     come from its own persistent pool. 1.3-1.4x Eigen's rate on AVX2 (docs/BENCHMARKS.md).
 // The back end is a process-wide setting: set_gemm_backend(), or the environment variable
-// PCP_GEMM=eigen|blas read at the first call; by default Blas when built, else Eigen.
+// PCP_GEMM=eigen|blas read at the first call; by default Blas when built, else Eigen. Neither
+// allocates on the heap after its first call at the largest shape (per thread).
 // Inside an OpenMP parallel region either back end runs single-threaded in the calling thread.
 #pragma once
 
