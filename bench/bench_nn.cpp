@@ -140,15 +140,21 @@ int main(int argc, char** argv) {
         for (std::size_t b = 0; b < batches.size(); ++b) {
             const int N = batches[b];
             Mat<float> A = randn(kH, kH, rng, 0.05), B = randn(kH, N, rng, 1.0), C(kH, N);
-            std::printf("| %d | %d |", t, N);
-            for (int k = 0; k < nb; ++k) {
-                set_gemm_backend(backends[k]);
-                const Timing tm = time_calls([&] { gemm<float>(C, A, B, 1.0f, 0.0f); }, 1.0, 7);
-                sgemm[k][t][b] = gemm_flops(kH, N, kH) / tm.seconds * 1e-9;
-                std::printf(" %.1f |", sgemm[k][t][b]);
+            // Three interleaved rounds, the best median of each: the machine is shared, and a
+            // burst of load during one round must not lower the reference of every step row.
+            double eigen_expr = 0;
+            for (int round = 0; round < 3; ++round) {
+                for (int k = 0; k < nb; ++k) {
+                    set_gemm_backend(backends[k]);
+                    const Timing tm = time_calls([&] { gemm<float>(C, A, B, 1.0f, 0.0f); }, 0.4, 7);
+                    sgemm[k][t][b] = std::max(sgemm[k][t][b], gemm_flops(kH, N, kH) / tm.seconds * 1e-9);
+                }
+                const Timing te = time_calls([&] { C.noalias() = A * B; }, 0.4, 7);
+                eigen_expr = std::max(eigen_expr, gemm_flops(kH, N, kH) / te.seconds * 1e-9);
             }
-            const Timing te = time_calls([&] { C.noalias() = A * B; }, 1.0, 7);
-            std::printf(" %.1f |\n", gemm_flops(kH, N, kH) / te.seconds * 1e-9);
+            std::printf("| %d | %d |", t, N);
+            for (int k = 0; k < nb; ++k) std::printf(" %.1f |", sgemm[k][t][b]);
+            std::printf(" %.1f |\n", eigen_expr);
             std::fflush(stdout);
         }
     }
