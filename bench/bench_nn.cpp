@@ -1,7 +1,10 @@
 // Benchmark of the neural core: steps/s, queries/s and GFLOP/s of the stage-1 and stage-2 training
 // steps at the paper's sizes (H = 512, L = 8, C = 256 and 512; batch 400, 2000, 5000; 1 and 2
-// threads), next to the machine's SGEMM rate measured in the same run (nn::gemm = Eigen float GEMM,
-// 512 x 512 times 512 x N). Prints a Markdown table for docs/BENCHMARKS.md.
+// threads), for every GEMM back end of the build side by side (nn::gemm with Eigen, and with
+// OpenBLAS when built), next to each back end's SGEMM rate measured in the same run (512 x 512
+// times 512 x N; also Eigen's own `C.noalias() = A * B` for reference), and the heap allocations
+// per step (all of the process's mallocs, counted over the timed steps). Prints Markdown tables
+// for docs/BENCHMARKS.md.
 //
 // FLOPs are counted as 2 x the multiply-adds the method needs (what the code computes; skipped work
 // is not counted). Per step, N queries, M = N encoder points, H, L, C, P = 1024 pool width, Hp = 512
@@ -18,7 +21,9 @@
 //     F forward    3H + C H + 2H^2 + (L - 1) H^2 + H
 //     F input grad (L - 1) H^2 + 2H^2 + 3H + C H
 //     Q backward   2 (3 + C) H + 2 (L - 1) H^2 + 2 H^2 + 3H
-// Usage: bench_nn [--quick]   (--quick: batch 400 and 2000 only)
+// Usage: bench_nn [--quick] [--gemm eigen|blas]
+//   --quick: batch 400 and 2000 only; --gemm: only that back end (default: every one built)
+#include "../tests/alloc_counter.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/nn/steps.hpp"
 
@@ -55,23 +60,35 @@ double stage2_flops(double N, double H, double L, double C) {
     return 2.0 * N * (qf + ff + fg + qb);
 }
 
+struct Timing {
+    double seconds;      // median wall time of one call
+    double allocations;  // heap allocations per call (mean over the timed calls)
+};
+
 // Median wall time of one call over at least `min_calls` calls and `min_seconds` (after one
-// warm-up call). The median keeps a burst of load from another process on the shared machine
-// from skewing either the SGEMM reference or the steps.
+// warm-up call), and the allocations per timed call. The median keeps a burst of load from
+// another process on the shared machine from skewing either the SGEMM reference or the steps.
 template <class F>
-double seconds_per_call(F&& f, double min_seconds, int min_calls) {
-    f();  // warm-up (first touch of buffers)
+Timing time_calls(F&& f, double min_seconds, int min_calls) {
+    f();  // warm-up (first touch of buffers, the GEMM's per-thread packing buffers)
     std::vector<double> times;
-    const auto t0 = Clock::now();
-    do {
-        const auto a = Clock::now();
-        f();
-        times.push_back(std::chrono::duration<double>(Clock::now() - a).count());
-    } while (std::chrono::duration<double>(Clock::now() - t0).count() < min_seconds ||
-             int(times.size()) < min_calls);
+    times.reserve(100000);  // no allocation while counting
+    long allocations;
+    {
+        alloc_counter::CountAllocations count;
+        const auto t0 = Clock::now();
+        do {
+            const auto a = Clock::now();
+            f();
+            times.push_back(std::chrono::duration<double>(Clock::now() - a).count());
+        } while (std::chrono::duration<double>(Clock::now() - t0).count() < min_seconds ||
+                 int(times.size()) < min_calls);
+        allocations = count.count();
+    }
     std::sort(times.begin(), times.end());
     const std::size_t n = times.size();
-    return n % 2 ? times[n / 2] : 0.5 * (times[n / 2 - 1] + times[n / 2]);
+    const double median = n % 2 ? times[n / 2] : 0.5 * (times[n / 2 - 1] + times[n / 2]);
+    return {median, double(allocations) / double(n)};
 }
 
 Mat<float> randn(int r, int c, Rng& rng, double sd) {
@@ -84,32 +101,68 @@ Mat<float> randn(int r, int c, Rng& rng, double sd) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+    bool quick = false;
+    std::vector<GemmBackend> backends{GemmBackend::Eigen};
+    if (gemm_backend_available(GemmBackend::Blas)) backends.push_back(GemmBackend::Blas);
+    for (int i = 1; i < argc; ++i) {
+        if (std::strcmp(argv[i], "--quick") == 0) {
+            quick = true;
+        } else if (std::strcmp(argv[i], "--gemm") == 0 && i + 1 < argc) {
+            const GemmBackend b = parse_gemm_backend(argv[++i]);
+            if (!gemm_backend_available(b)) {
+                std::fprintf(stderr, "bench_nn: back end %s is not in this build\n", argv[i]);
+                return 2;
+            }
+            backends = {b};
+        } else {
+            std::fprintf(stderr, "usage: bench_nn [--quick] [--gemm eigen|blas]\n");
+            return 2;
+        }
+    }
     const std::vector<int> batches = quick ? std::vector<int>{400, 2000} : std::vector<int>{400, 2000, 5000};
     const std::vector<int> threads = {1, 2};
     const std::vector<int> conds = {256, 512};
+    const int nb = int(backends.size());
 
-    // SGEMM reference: C (512 x N) = A (512 x 512) * B (512 x N).
-    std::printf("## SGEMM (nn::gemm, Eigen %d.%d.%d, float)\n\n", EIGEN_WORLD_VERSION,
-                EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION);
-    std::printf("| threads | N | GFLOP/s |\n| --- | --- | --- |\n");
-    double sgemm[3][8] = {};
+    // SGEMM reference: C (512 x N) = A (512 x 512) * B (512 x N), per back end; and Eigen's own
+    // product expression (what nn::gemm ran before it drove Eigen's kernel itself).
+    std::printf("## SGEMM (512 x 512 times 512 x N, float, GFLOP/s; Eigen %d.%d.%d)\n\n",
+                EIGEN_WORLD_VERSION, EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION);
+    std::printf("| threads | N |");
+    for (GemmBackend b : backends) std::printf(" nn::gemm %s |", gemm_backend_name(b));
+    std::printf(" Eigen `A * B` |\n| --- | --- |");
+    for (int i = 0; i <= nb; ++i) std::printf(" --- |");
+    std::printf("\n");
+    double sgemm[2][3][8] = {};
     Rng rng(1, 0);
     for (int t : threads) {
         Eigen::setNbThreads(t);
         for (std::size_t b = 0; b < batches.size(); ++b) {
             const int N = batches[b];
             Mat<float> A = randn(kH, kH, rng, 0.05), B = randn(kH, N, rng, 1.0), C(kH, N);
-            const double s = seconds_per_call([&] { gemm<float>(C, A, B, 1.0f, 0.0f); }, 1.0, 7);
-            sgemm[t][b] = gemm_flops(kH, N, kH) / s * 1e-9;
-            std::printf("| %d | %d | %.1f |\n", t, N, sgemm[t][b]);
+            // Three interleaved rounds, the best median of each: the machine is shared, and a
+            // burst of load during one round must not lower the reference of every step row.
+            double eigen_expr = 0;
+            for (int round = 0; round < 3; ++round) {
+                for (int k = 0; k < nb; ++k) {
+                    set_gemm_backend(backends[k]);
+                    const Timing tm = time_calls([&] { gemm<float>(C, A, B, 1.0f, 0.0f); }, 0.4, 7);
+                    sgemm[k][t][b] = std::max(sgemm[k][t][b], gemm_flops(kH, N, kH) / tm.seconds * 1e-9);
+                }
+                const Timing te = time_calls([&] { C.noalias() = A * B; }, 0.4, 7);
+                eigen_expr = std::max(eigen_expr, gemm_flops(kH, N, kH) / te.seconds * 1e-9);
+            }
+            std::printf("| %d | %d |", t, N);
+            for (int k = 0; k < nb; ++k) std::printf(" %.1f |", sgemm[k][t][b]);
+            std::printf(" %.1f |\n", eigen_expr);
             std::fflush(stdout);
         }
     }
 
     std::printf("\n## Training steps (H = %d, L = %d, float)\n\n", kH, kL);
-    std::printf("| stage | C | threads | batch N | ms/step | steps/s | queries/s | GFLOP/step | "
-                "GFLOP/s | %% of SGEMM |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+    std::printf("| stage | C | threads | batch N | gemm | ms/step | steps/s | queries/s | GFLOP/step | "
+                "GFLOP/s | %% of its SGEMM | mallocs/step |\n"
+                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
     for (int C : conds) {
         Rng init(2, std::uint64_t(C));
         BranchMlp<float> F(decoder_shape(C, kH, kL));
@@ -131,15 +184,19 @@ int main(int argc, char** argv) {
                     const int N = batches[b];
                     const auto qb = q.leftCols(N);
                     const auto tb = pts.leftCols(N);
-                    const double s =
-                        stage == 1 ? seconds_per_call([&] { s1.step(qb, tb, tb); }, 1.5, 3)
-                                   : seconds_per_call([&] { s2.step(qb, tb, no_codes); }, 1.5, 3);
-                    const double fl = stage == 1 ? stage1_flops(N, kH, kL, C) : stage2_flops(N, kH, kL, C);
-                    const double gfs = fl / s * 1e-9;
-                    std::printf("| %d | %d | %d | %d | %.1f | %.2f | %.0f | %.1f | %.1f | %.0f%% |\n",
-                                stage, C, t, N, s * 1e3, 1.0 / s, N / s, fl * 1e-9, gfs,
-                                100.0 * gfs / sgemm[t][b]);
-                    std::fflush(stdout);
+                    for (int k = 0; k < nb; ++k) {
+                        set_gemm_backend(backends[k]);
+                        const Timing tm =
+                            stage == 1 ? time_calls([&] { s1.step(qb, tb, tb); }, 1.5, 3)
+                                       : time_calls([&] { s2.step(qb, tb, no_codes); }, 1.5, 3);
+                        const double s = tm.seconds;
+                        const double fl = stage == 1 ? stage1_flops(N, kH, kL, C) : stage2_flops(N, kH, kL, C);
+                        const double gfs = fl / s * 1e-9;
+                        std::printf("| %d | %d | %d | %d | %s | %.1f | %.2f | %.0f | %.1f | %.1f | %.0f%% | %.1f |\n",
+                                    stage, C, t, N, gemm_backend_name(backends[k]), s * 1e3, 1.0 / s,
+                                    N / s, fl * 1e-9, gfs, 100.0 * gfs / sgemm[k][t][b], tm.allocations);
+                        std::fflush(stdout);
+                    }
                 }
             }
         }

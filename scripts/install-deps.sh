@@ -3,7 +3,8 @@
 # what is missing, and runs apt-get update only when something is. Run as root (or with sudo).
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config
-          libeigen3-dev libcgal-dev libnanoflann-dev catch2 libcxxopts-dev time)
+          libeigen3-dev libcgal-dev libnanoflann-dev catch2 libcxxopts-dev time
+          libopenblas-openmp-dev)  # OpenBLAS: nn::gemm's default back end (PCP_BLAS=AUTO)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
