@@ -5,6 +5,7 @@
 // blocks of larger matrices, alpha/beta variants, beta == 0 over NaN, k == 0; the back-end
 // selection API; and that the BLAS back end leaves the caller's OpenMP thread count as it was.
 #include "pcp/error.hpp"
+#include "gemm_backends.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/nn/rng.hpp"
 
@@ -22,20 +23,8 @@ using namespace pcp::nn;
 
 namespace {
 
-std::vector<GemmBackend> backends() {
-    std::vector<GemmBackend> b{GemmBackend::Eigen};
-    if (gemm_backend_available(GemmBackend::Blas)) b.push_back(GemmBackend::Blas);
-    return b;
-}
-
-struct RestoreGemmSettings {
-    int threads = Eigen::nbThreads();
-    GemmBackend backend = gemm_backend();
-    ~RestoreGemmSettings() {
-        Eigen::setNbThreads(threads);
-        set_gemm_backend(backend);
-    }
-};
+using pcp::test::RestoreGemmSettings;
+const auto backends = pcp::test::gemm_backends;
 
 template <class S>
 Mat<S> randn(Eigen::Index r, Eigen::Index c, Rng& rng) {

@@ -4,6 +4,7 @@
 // hooks under ASan).
 #include "alloc_counter.hpp"
 #include "pcp/error.hpp"
+#include "gemm_backends.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/nn/steps.hpp"
 
@@ -161,22 +162,8 @@ TEST_CASE("nn: stage 2 fits a torus through a frozen sphere-trained F", "[nn]") 
 
 namespace {
 
-// The GEMM back ends this build has (the tests run every one of them).
-std::vector<GemmBackend> backends() {
-    std::vector<GemmBackend> b{GemmBackend::Eigen};
-    if (gemm_backend_available(GemmBackend::Blas)) b.push_back(GemmBackend::Blas);
-    return b;
-}
-
-// Restores the process-wide GEMM settings a test changes.
-struct RestoreGemmSettings {
-    int threads = Eigen::nbThreads();
-    GemmBackend backend = gemm_backend();
-    ~RestoreGemmSettings() {
-        Eigen::setNbThreads(threads);
-        set_gemm_backend(backend);
-    }
-};
+using pcp::test::RestoreGemmSettings;
+const auto backends = pcp::test::gemm_backends;
 
 }  // namespace
 
