@@ -12,7 +12,8 @@
 #   --manifest FILE    data manifest (default: <repo>/../shared/data/MANIFEST.tsv); the paths in it
 #                      are relative to its directory
 #   --cases A,B,...    only these cases (default: every case of --category with a ground-truth mesh)
-#   --category C       cases of this category (default: abc, the paper's ablation set)
+#   --category C       cases of this category (default: abc, the paper's ablation set, unless
+#                      --cases is given)
 #   --variants A,B,... only these variants (default: all; they run in the order listed below):
 #                        ours           --ablation none, --prior-grid 6, --prior-normalization both
 #                        no-shift, direct, free-code, pointnet-code, no-prior, tune-prior
@@ -46,7 +47,8 @@ command_line=$(bench_command_line bench/run_ablations.sh "$@")
 
 manifest="$repo/../shared/data/MANIFEST.tsv"
 cases_filter=""
-category_filter="abc"
+category_filter=""
+category_given=0
 variants_filter=""
 preset="default"
 out_dir=""
@@ -62,7 +64,7 @@ while [ $# -gt 0 ]; do
     case "$1" in
         --manifest) need_value "$@"; manifest=$2; shift 2 ;;
         --cases) need_value "$@"; cases_filter=$2; shift 2 ;;
-        --category) need_value "$@"; category_filter=$2; shift 2 ;;
+        --category) need_value "$@"; category_filter=$2; category_given=1; shift 2 ;;
         --variants) need_value "$@"; variants_filter=$2; shift 2 ;;
         --preset) need_value "$@"; preset=$2; shift 2 ;;
         --out) need_value "$@"; out_dir=$2; shift 2 ;;
@@ -99,6 +101,7 @@ else
     variants=("${ALL_VARIANTS[@]}")
 fi
 
+[ -z "$cases_filter" ] && [ $category_given -eq 0 ] && category_filter=abc
 bench_read_manifest "$manifest"
 bench_select_cases "$cases_filter" "$category_filter"
 

@@ -70,6 +70,8 @@ dry-run)
     check "--out inside the repository is refused" [ $? -eq 2 ]
     bash "$script" --manifest "$work/data/MANIFEST.tsv" --category object --variants ours --dry-run >"$work/stdout3" 2>&1
     check "--category object selects the other case" contains "$work/stdout3" "# object_case"
+    bash "$script" --manifest "$work/data/MANIFEST.tsv" --cases object_case --variants ours --dry-run >"$work/stdout4" 2>&1
+    check "--cases without --category takes any category" contains "$work/stdout4" "# object_case"
     ;;
 fake-run)
     [ -x /usr/bin/time ] || { echo "skipped: no /usr/bin/time (Debian package 'time')"; exit 77; }
