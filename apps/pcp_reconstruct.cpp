@@ -1,8 +1,10 @@
 // pcp_reconstruct [INPUT] -o OUT: point cloud -> mesh by PCP. Without INPUT it runs on the
 // embedded default shape (a block with sharp edges, a through-hole and a thin fin, sampled with
-// noise). Without --prior it first learns a self-prior on the input. Progress, checkpoints of the
-// query-network stage (OUT.ckpt, every --checkpoint-every steps and on SIGINT/SIGTERM), --resume,
-// and a final report with times, memory, loss, mesh size and closedness.
+// noise). Without --prior it first learns a self-prior on the input (its region grid and
+// normalisation, --prior-grid / --prior-normalization, are the paper's ablation tables 11-12).
+// Progress, checkpoints of the query-network stage (OUT.ckpt, every --checkpoint-every steps and
+// on SIGINT/SIGTERM), --resume, and a final report with times, memory, loss, mesh size and
+// closedness.
 #include "cli_common.hpp"
 
 #include "pcp/error.hpp"
@@ -11,6 +13,7 @@
 #include "pcp/normalize.hpp"
 #include "pcp/prior.hpp"
 #include "pcp/reconstruct.hpp"
+#include "pcp/regions.hpp"
 #include "pcp/shapes.hpp"
 
 #include <cstdio>
@@ -50,7 +53,13 @@ int main(int argc, char** argv) {
             ("builtin-points", "Points sampled on the embedded default shape", cxxopts::value<long>()->default_value(std::to_string(builtin_defaults.points)))
             ("builtin-noise", "Noise of the embedded default shape", cxxopts::value<double>()->default_value(fmt(builtin_defaults.noise)));
         options.add_options("Self-prior (stage 1, when no --prior is given)")
-            ("prior-epochs", "Self-prior epochs (passes over the input's regions)", cxxopts::value<int>()->default_value(std::to_string(d.self_prior.epochs)));
+            ("prior-epochs", "Self-prior epochs (passes over the input's regions)", cxxopts::value<int>()->default_value(std::to_string(d.self_prior.epochs)))
+            ("prior-steps", "Stop the self-prior after this many steps instead (0 = epochs x regions)",
+             cxxopts::value<long>()->default_value(std::to_string(d.self_prior.max_steps)))
+            ("prior-grid", "Self-prior region grid: cells per axis (1 = no split, the paper's 0^3)",
+             cxxopts::value<int>()->default_value(std::to_string(d.self_prior.regions.grid)))
+            ("prior-normalization", "Self-prior per-region normalisation: none | center | scale | both",
+             cxxopts::value<std::string>()->default_value(pcp::to_string(d.self_prior.regions.normalization)));
         pcp::cli::add_sampling_options(options, "Queries (both stages)", d.fit.sampling);
         options.add_options("Query network (stage 2)")
             ("steps", "Query-network steps", cxxopts::value<long>()->default_value(std::to_string(d.fit.steps)))
@@ -81,6 +90,18 @@ int main(int argc, char** argv) {
         }
         if (args.count("prior-epochs")) o.self_prior.epochs = args["prior-epochs"].as<int>();
         if (o.self_prior.epochs < 1) throw pcp::cli::UsageError("--prior-epochs must be >= 1");
+        if (args.count("prior-steps")) o.self_prior.max_steps = args["prior-steps"].as<long>();
+        if (o.self_prior.max_steps < 0) throw pcp::cli::UsageError("--prior-steps must be >= 0");
+        if (args.count("prior-grid")) o.self_prior.regions.grid = args["prior-grid"].as<int>();
+        if (o.self_prior.regions.grid < 1 || o.self_prior.regions.grid > 64)
+            throw pcp::cli::UsageError("--prior-grid must be in [1, 64] (got " + std::to_string(o.self_prior.regions.grid) + ")");
+        if (args.count("prior-normalization")) {
+            try {
+                o.self_prior.regions.normalization = pcp::parse_region_normalization(args["prior-normalization"].as<std::string>());
+            } catch (const pcp::Error& e) {
+                throw pcp::cli::UsageError(std::string("--prior-normalization: ") + e.what());
+            }
+        }
         if (args.count("steps")) o.fit.steps = args["steps"].as<long>();
         if (args.count("batch")) o.fit.queries_per_step = args["batch"].as<int>();
         if (args.count("lr")) o.fit.learning_rate = args["lr"].as<double>();
@@ -134,7 +155,11 @@ int main(int argc, char** argv) {
                                               {"output", output},
                                               {"prior", !prior_path.empty() ? prior_path
                                                         : o.fit.ablation == pcp::QueryAblation::NoPrior ? "none (F trained from scratch)"
-                                                        : "self-prior (" + std::to_string(o.self_prior.epochs) + " epochs)"},
+                                                        : "self-prior (" + (o.self_prior.max_steps > 0
+                                                                                  ? std::to_string(o.self_prior.max_steps) + " steps"
+                                                                                  : std::to_string(o.self_prior.epochs) + " epochs") +
+                                                              ", " + std::to_string(o.self_prior.regions.grid) + "^3 grid, normalization " +
+                                                              pcp::to_string(o.self_prior.regions.normalization) + ")"},
                                               {"preset", args["preset"].as<std::string>()},
                                               {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step)},
                                               {"ablation", pcp::to_string(o.fit.ablation)},

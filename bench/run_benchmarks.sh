@@ -5,7 +5,8 @@
 # `/usr/bin/time -v` (wall time, peak RSS), evaluates both meshes with pcp_eval under the p2s and
 # shapenet protocols (with the floor: ground truth against itself), and writes one generated
 # section between the markers below into the Markdown file, replacing the previous one and leaving
-# the rest of the file untouched (written atomically: temp file + mv, after every case).
+# the rest of the file untouched (written atomically: temp file + mv, after every case). Shared
+# functions (manifest, cases, commands, time reports, machine line): bench/lib_bench.sh.
 #
 # Usage: bench/run_benchmarks.sh [options] [-- extra pcp_reconstruct options]
 #   --manifest FILE   data manifest (default: <repo>/../shared/data/MANIFEST.tsv); the paths in it
@@ -33,11 +34,10 @@ readonly END_MARK='<!-- END run_benchmarks -->'
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo=$(cd "$here/.." && pwd)
-command_line="bench/run_benchmarks.sh"
-# Words that need no quoting are shown as they are (printf %q would escape the comma of --cases a,b).
-for arg in "$@"; do
-    if [[ "$arg" =~ ^[A-Za-z0-9_./,=:+@%-]+$ ]]; then command_line+=" $arg"; else command_line+=" $(printf '%q' "$arg")"; fi
-done
+prog=run_benchmarks
+# shellcheck source=bench/lib_bench.sh
+source "$here/lib_bench.sh"
+command_line=$(bench_command_line bench/run_benchmarks.sh "$@")
 
 manifest="$repo/../shared/data/MANIFEST.tsv"
 cases_filter=""
@@ -50,9 +50,7 @@ lock_file=""
 dry_run=0
 extra_args=()
 
-die_usage() { echo "run_benchmarks: $*" >&2; echo "run_benchmarks: see --help" >&2; exit 2; }
 usage() { sed -n '/^# Usage:/,/^set -uo/p' "${BASH_SOURCE[0]}" | sed '$d' | sed 's/^# \{0,1\}//'; }
-need_value() { [ $# -ge 2 ] && [ -n "$2" ] || die_usage "$1 needs a value"; }
 
 while [ $# -gt 0 ]; do
     case "$1" in
@@ -71,57 +69,8 @@ while [ $# -gt 0 ]; do
     esac
 done
 case "$preset" in paper | default | fast) ;; *) die_usage "--preset must be paper, default or fast (got '$preset')" ;; esac
-[ -f "$manifest" ] || die_usage "manifest not found: $manifest"
-data_dir=$(cd "$(dirname "$manifest")" && pwd)
-
-# ---- the manifest: columns found by name ----
-declare -A col=()
-{
-    # Tabs are IFS whitespace (runs of them would merge): split on a non-whitespace separator.
-    IFS= read -r line || die_usage "$manifest is empty"
-    IFS=$'\x1f' read -r -a header <<<"${line//$'\t'/$'\x1f'}"
-    for i in "${!header[@]}"; do col[${header[$i]%$'\r'}]=$i; done
-    for name in name category input gt_mesh points; do
-        [ -n "${col[$name]+x}" ] || die_usage "$manifest: no column '$name'"
-    done
-    names=() categories=() inputs=() gts=() npoints=()
-    while IFS= read -r line || [ -n "$line" ]; do
-        line=${line%$'\r'}
-        [ -n "$line" ] || continue
-        [[ "$line" == \#* ]] && { line=""; continue; }
-        IFS=$'\x1f' read -r -a f <<<"${line//$'\t'/$'\x1f'}"
-        names+=("${f[${col[name]}]:-}")
-        categories+=("${f[${col[category]}]:-}")
-        inputs+=("${f[${col[input]}]:--}")
-        gts+=("${f[${col[gt_mesh]}]:--}")
-        npoints+=("${f[${col[points]}]:--}")
-        line=""
-    done
-} <"$manifest"
-
-# ---- which cases ----
-declare -A wanted=()
-if [ -n "$cases_filter" ]; then
-    IFS=',' read -r -a requested <<<"$cases_filter"
-    for c in "${requested[@]}"; do
-        found=0
-        for n in "${names[@]}"; do [ "$n" = "$c" ] && found=1; done
-        [ $found -eq 1 ] || die_usage "--cases: '$c' is not in $manifest"
-        wanted[$c]=1
-    done
-fi
-selected=()
-for i in "${!names[@]}"; do
-    [ -n "$cases_filter" ] && [ -z "${wanted[${names[$i]}]+x}" ] && continue
-    [ -n "$category_filter" ] && [ "${categories[$i]}" != "$category_filter" ] && continue
-    if [ "${gts[$i]}" = "-" ]; then
-        # Cases without ground truth are not benchmarks; say so only when they were asked for.
-        [ -n "$cases_filter" ] && echo "run_benchmarks: skip ${names[$i]}: no ground-truth mesh in the manifest" >&2
-        continue
-    fi
-    selected+=("$i")
-done
-[ ${#selected[@]} -gt 0 ] || die_usage "no case with a ground-truth mesh matches the filters"
+bench_read_manifest "$manifest"
+bench_select_cases "$cases_filter" "$category_filter"
 
 # ---- tools and output directory ----
 reconstruct="$bin_dir/pcp_reconstruct"
@@ -134,20 +83,8 @@ if [ $dry_run -eq 0 ]; then
     [ -x /usr/bin/time ] || die_usage "GNU time is needed as /usr/bin/time (Debian package 'time')"
     if [ -n "$lock_file" ]; then command -v flock >/dev/null || die_usage "--lock needs flock (util-linux)"; fi
 fi
-if [ -z "$out_dir" ]; then
-    if [ $dry_run -eq 1 ]; then out_dir="${TMPDIR:-/tmp}/pcp_bench.XXXXXX"
-    else out_dir=$(mktemp -d "${TMPDIR:-/tmp}/pcp_bench.XXXXXX") || die_usage "cannot create a temp dir"; fi
-fi
-out_abs=$(realpath -m "$out_dir")
-case "$out_abs/" in
-    "$repo"/*)
-        # Meshes of the data must never become part of the repository: only git-ignored places
-        # (such as build/) are allowed inside it.
-        git -C "$repo" check-ignore -q "$out_abs" 2>/dev/null ||
-            die_usage "--out $out_dir is inside the repository and not git-ignored; the data's meshes must stay out of it" ;;
-esac
+bench_prepare_out_dir pcp_bench
 if [ $dry_run -eq 0 ]; then
-    mkdir -p "$out_dir" || die_usage "cannot create $out_dir"
     markdown_dir=$(dirname "$markdown")
     [ -d "$markdown_dir" ] && [ -w "$markdown_dir" ] || die_usage "cannot write into $markdown_dir"
 fi
@@ -156,46 +93,13 @@ lock_prefix=()
 [ -n "$lock_file" ] && lock_prefix=(flock "$lock_file")
 
 # ---- running ----
-# show_command CMD... : the command as a copy-pastable line.
-show_command() {
-    local line="" a
-    for a in "$@"; do line+="$(printf '%q' "$a") "; done
-    printf '%s' "${line% }"
-}
-
-# run_logged LOG CMD... : runs CMD with stdout+stderr into LOG (dry run: prints it); returns its status.
-run_logged() {
-    local log=$1; shift
-    if [ $dry_run -eq 1 ]; then
-        echo "$(show_command "${lock_prefix[@]}" "$@") >$(printf '%q' "$log") 2>&1"
-        return 0
-    fi
-    "${lock_prefix[@]}" "$@" >"$log" 2>&1
-}
-
-# run_to LOG ERR CMD... : stdout into LOG, stderr into ERR.
-run_to() {
-    local log=$1 err=$2; shift 2
-    if [ $dry_run -eq 1 ]; then
-        echo "$(show_command "${lock_prefix[@]}" "$@") >$(printf '%q' "$log") 2>$(printf '%q' "$err")"
-        return 0
-    fi
-    "${lock_prefix[@]}" "$@" >"$log" 2>"$err"
-}
+# Commands: show_command, run_logged LOG CMD..., run_to LOG ERR CMD... (bench/lib_bench.sh).
 
 # Results, keyed "case|method|field" (fields: status, time, rss, log, and protocol.metric for the
 # evaluations); floors keyed "case|floor|protocol.metric".
 declare -A R=()
 
-# read_time_report FILE KEY : wall seconds and peak RSS (MiB) from `time -v -o FILE`.
-read_time_report() {
-    local file=$1 key=$2
-    R[$key|time]=$(awk '/Elapsed \(wall clock\) time/ { n = split($NF, a, ":"); s = 0;
-                        for (i = 1; i <= n; ++i) s = s * 60 + a[i]; printf "%.1f", s }' "$file" 2>/dev/null)
-    R[$key|rss]=$(awk '/Maximum resident set size/ { printf "%.0f", $NF / 1024 }' "$file" 2>/dev/null)
-    [ -n "${R[$key|time]}" ] || R[$key|time]="-"
-    [ -n "${R[$key|rss]}" ] || R[$key|rss]="-"
-}
+# read_time_report FILE KEY (bench/lib_bench.sh): wall seconds and peak RSS (MiB).
 
 # read_eval_tsv FILE CASE METHOD PROTOCOL : "name value floor" lines of pcp_eval --tsv.
 read_eval_tsv() {
@@ -275,9 +179,7 @@ run_case() {
 }
 
 # ---- the Markdown section ----
-# num FORMAT VALUE : printf through awk; "-" for a missing value.
-num() { if [ -z "${2:-}" ] || [ "$2" = "-" ]; then echo "-"; else awk -v f="$1" -v v="$2" 'BEGIN { printf f, v }'; fi; }
-get() { local k=$1; echo "${R[$k]:--}"; }
+# num FORMAT VALUE and get KEY: bench/lib_bench.sh.
 
 # beats CASE : yes/no/- for "PCP has a lower L2-CD (p2s) and a higher NC (shapenet) than Poisson".
 beats() {
@@ -289,32 +191,7 @@ beats() {
                  else if (a + 0 < b + 0 && na + 0 > nb + 0) print "yes"; else print "no" }'
 }
 
-machine_lines() {
-    local cpu cores isa mem cxx="" compiler="unknown" build_type="unknown" cache commit dirty=""
-    cpu=$(awk -F': ' '/^model name/ { print $2; exit }' /proc/cpuinfo 2>/dev/null)
-    cores=$(nproc 2>/dev/null)
-    isa=$(awk '/^flags/ { for (i = 3; i <= NF; ++i) if ($i ~ /^(avx2|fma|avx512f|avx512_bf16|amx_tile)$/) s = s " " $i; print substr(s, 2); exit }' /proc/cpuinfo 2>/dev/null)
-    local isa_text="" flag label
-    for flag in avx2:AVX2 fma:FMA avx512f:AVX-512 avx512_bf16:AVX512-BF16 amx_tile:AMX; do
-        label=${flag#*:}
-        if [[ " $isa " == *" ${flag%%:*} "* ]]; then isa_text+=", $label"; else isa_text+=", no $label"; fi
-    done
-    isa_text=${isa_text#, }
-    mem=$(awk '/^MemTotal/ { printf "%.0f GiB", $2 / 1048576 }' /proc/meminfo 2>/dev/null)
-    cache="$bin_dir/../CMakeCache.txt"
-    if [ -f "$cache" ]; then
-        cxx=$(sed -n 's/^CMAKE_CXX_COMPILER:[A-Z]*=//p' "$cache")
-        build_type=$(sed -n 's/^CMAKE_BUILD_TYPE:[A-Z]*=//p' "$cache")
-        [ -n "$cxx" ] && compiler=$("$cxx" --version 2>/dev/null | head -n 1)
-    fi
-    commit=$(git -C "$repo" rev-parse --short=12 HEAD 2>/dev/null || echo unknown)
-    [ -n "$(git -C "$repo" status --porcelain --untracked-files=no 2>/dev/null)" ] && dirty=" (with uncommitted changes)"
-    echo "- Date: $(date -u '+%Y-%m-%d %H:%M UTC')"
-    echo "- Machine: ${cpu:-unknown CPU}, $cores cores ($isa_text), ${mem:-unknown memory}; $(uname -sr)"
-    echo "- Compiler: $compiler; build type ${build_type:-unknown} (\`$bin_dir\`)"
-    echo "- libpcp commit: \`$commit\`$dirty"
-    echo "- Data: \`$(realpath "$manifest")\`; meshes and logs: \`$out_dir\`"
-}
+# machine_lines: bench/lib_bench.sh.
 
 # write_section DONE TOTAL : (re)writes the generated section of $markdown.
 write_section() {

@@ -188,6 +188,29 @@ TEST_CASE("cli: --ablation takes the paper's ablation names; others exit 2 with 
     CHECK(bad.err.find("pointnet-code") != std::string::npos);
 }
 
+TEST_CASE("cli: pcp_reconstruct's self-prior region options: bad values exit 2 naming the flag", "[cli]") {
+    for (const char* grid : {"0", "65", "-1"}) {
+        const RunResult r = run(bin("pcp_reconstruct") + " --prior-grid " + grid + " x.ply");
+        INFO("--prior-grid " << grid << " stderr: " << r.err);
+        CHECK(r.exit_code == 2);
+        CHECK(r.err.find("--prior-grid must be in [1, 64]") != std::string::npos);
+    }
+    const RunResult norm = run(bin("pcp_reconstruct") + " --prior-normalization scaled x.ply");
+    INFO("stderr: " << norm.err);
+    CHECK(norm.exit_code == 2);
+    CHECK(norm.err.find("--prior-normalization: unknown region normalisation 'scaled' (use none, center, scale or both)") !=
+          std::string::npos);
+    const RunResult steps = run(bin("pcp_reconstruct") + " --prior-steps -5 x.ply");
+    CHECK(steps.exit_code == 2);
+    CHECK(steps.err.find("--prior-steps must be >= 0") != std::string::npos);
+    // Valid values pass the option checks: the run then fails on the missing input (exit 1).
+    const RunResult good = run(bin("pcp_reconstruct") + " --prior-grid 1 --prior-normalization center --prior-steps 10 "
+                                                        "/nonexistent/x.ply -o '" + (case_dir("prior_regions") / "o.ply").string() + "'");
+    INFO("stderr: " << good.err);
+    CHECK(good.exit_code == 1);
+    CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
+}
+
 TEST_CASE("cli: bad --spreads and --uniform-fraction exit 2 naming the flag", "[cli]") {
     for (const std::string& program : {std::string("pcp_reconstruct"), std::string("pcp_train")}) {
         const RunResult spreads = run(bin(program) + " --spreads 0.5,-1 x.ply");
