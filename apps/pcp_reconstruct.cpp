@@ -74,7 +74,12 @@ int main(int argc, char** argv) {
         options.add_options("Meshing")
             ("resolution", "Marching-cubes cells along the longest axis", cxxopts::value<int>()->default_value(std::to_string(d.resolution)))
             ("iso", "Iso level", cxxopts::value<double>()->default_value(fmt(d.iso)))
-            ("margin", "Margin around the cloud's unit box", cxxopts::value<double>()->default_value(fmt(d.margin)));
+            ("margin", "Margin around the cloud's unit box", cxxopts::value<double>()->default_value(fmt(d.margin)))
+            ("sign-repair", "on | off: flip regions of the fitted field whose sign the data does not support, on a coarse "
+                            "grid (not in the paper; include/pcp/sign_repair.hpp)",
+             cxxopts::value<std::string>()->default_value(d.sign_repair.enabled ? "on" : "off"))
+            ("sign-repair-resolution", "Cells per axis of the sign repair's coarse grid",
+             cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.resolution)));
         options.parse_positional({"input"});
         pcp::cli::add_common_options(options);
         cxxopts::ParseResult args;
@@ -123,6 +128,14 @@ int main(int argc, char** argv) {
             throw pcp::cli::UsageError("steps, batch, width and learning rate must be positive");
         if (o.resolution < 8 || o.resolution > 2048) throw pcp::cli::UsageError("--resolution must be in [8, 2048]");
         if (!(o.margin >= 0)) throw pcp::cli::UsageError("--margin must be >= 0");
+        if (args.count("sign-repair")) {
+            const std::string v = args["sign-repair"].as<std::string>();
+            if (v != "on" && v != "off") throw pcp::cli::UsageError("--sign-repair must be on or off (got '" + v + "')");
+            o.sign_repair.enabled = v == "on";
+        }
+        if (args.count("sign-repair-resolution")) o.sign_repair.resolution = args["sign-repair-resolution"].as<int>();
+        if (o.sign_repair.resolution < 2 || o.sign_repair.resolution > 512)
+            throw pcp::cli::UsageError("--sign-repair-resolution must be in [2, 512]");
         if (args["builtin-points"].as<long>() < pcp::min_points_for(o.fit.sampling))
             throw pcp::cli::UsageError("--builtin-points must be >= " + std::to_string(pcp::min_points_for(o.fit.sampling)));
         o.fit.seed = o.self_prior.seed = common.seed;
@@ -164,6 +177,7 @@ int main(int argc, char** argv) {
                                               {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step)},
                                               {"ablation", pcp::to_string(o.fit.ablation)},
                                               {"resolution", std::to_string(o.resolution)},
+                                              {"sign repair", o.sign_repair.enabled ? "on (coarse grid " + std::to_string(std::min(o.sign_repair.resolution, o.resolution)) + ")" : "off"},
                                               {"seed", std::to_string(common.seed)}});
         o.progress = pcp::cli::make_progress_printer(log, o.fit.progress_every);
         o.fit.checkpoint_path = output + ".ckpt";
@@ -178,7 +192,9 @@ int main(int argc, char** argv) {
         std::filesystem::remove(o.fit.checkpoint_path, ec);
         std::ostringstream s;
         s << "wrote " << output << ": " << mesh.vertices.rows() << " vertices, " << mesh.faces.rows() << " faces, "
-          << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "") << "\n"
+          << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "")
+          << ", sign repair flipped " << report.sign_repair.flipped_components << " of " << report.sign_repair.components
+          << " regions away from the data\n"
           << "| read " << fmt(t_read) << " s | prior " << fmt(report.seconds_prior) << " s (loss " << fmt(report.prior_loss)
           << ") | query net " << fmt(report.seconds_fit) << " s (" << report.fit_steps << " steps, loss " << fmt(report.fit_loss)
           << ") | SDF grid " << fmt(report.seconds_grid) << " s (" << report.sdf_evaluations << " evaluations) | marching cubes "

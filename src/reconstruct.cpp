@@ -502,7 +502,7 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     const Eigen::Array3f lo = spec.box.min.cast<float>().array(), hi = spec.box.max.cast<float>().array();
     const Eigen::Array3f tol = (spec.spacing() * 1e-3).cast<float>().array();
     const float outside = static_cast<float>(options.iso + 1e-3 * spec.spacing().minCoeff());
-    const SdfBatchFn field = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
+    const SdfBatchFn fitted = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
         fitter.sdf(q, v);
         if (sign < 0) v = -v;
         for (Eigen::Index i = 0; i < q.rows(); ++i) {
@@ -510,12 +510,22 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
             if (((p - lo).abs() <= tol).any() || ((p - hi).abs() <= tol).any()) v(i) = std::max(v(i), outside);
         }
     };
+    // Regions whose sign the data does not support are flipped (include/pcp/sign_repair.hpp); the
+    // coarse grid is never finer than the fine one.
+    SignRepairOptions so = options.sign_repair;
+    so.resolution = std::min(so.resolution, options.resolution);
+    const SignRepair repair(fitted, spec.box, fitter.unit_points(), options.iso, so);
+    r.sign_repair = repair.stats();
+    const SdfBatchFn field = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
+        fitted(q, v);
+        repair.apply(q, v);
+    };
     SdfGridOptions go = options.grid;
     go.iso = options.iso;
     go.progress = chain(go.progress, options.progress);
     const SdfGrid grid = go.band == NarrowBand::NearPoints ? evaluate_sdf_grid(field, spec, go, fitter.unit_points())
                                                            : evaluate_sdf_grid(field, spec, go);
-    r.sdf_evaluations = grid.stats.evaluations;
+    r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations;
     r.seconds_grid = seconds_since(t0);
 
     t0 = std::chrono::steady_clock::now();

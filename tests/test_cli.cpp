@@ -211,6 +211,24 @@ TEST_CASE("cli: pcp_reconstruct's self-prior region options: bad values exit 2 n
     CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
 }
 
+TEST_CASE("cli: pcp_reconstruct's sign-repair options: bad values exit 2 naming the flag", "[cli]") {
+    const RunResult word = run(bin("pcp_reconstruct") + " --sign-repair yes x.ply");
+    INFO("stderr: " << word.err);
+    CHECK(word.exit_code == 2);
+    CHECK(word.err.find("--sign-repair must be on or off (got 'yes')") != std::string::npos);
+    for (const char* res : {"1", "513"}) {
+        const RunResult r = run(bin("pcp_reconstruct") + " --sign-repair-resolution " + res + " x.ply");
+        INFO("--sign-repair-resolution " << res << " stderr: " << r.err);
+        CHECK(r.exit_code == 2);
+        CHECK(r.err.find("--sign-repair-resolution must be in [2, 512]") != std::string::npos);
+    }
+    const RunResult good = run(bin("pcp_reconstruct") + " --sign-repair off --sign-repair-resolution 32 /nonexistent/x.ply -o '" +
+                               (case_dir("sign_repair") / "o.ply").string() + "'");
+    INFO("stderr: " << good.err);
+    CHECK(good.exit_code == 1);
+    CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
+}
+
 TEST_CASE("cli: bad --spreads and --uniform-fraction exit 2 naming the flag", "[cli]") {
     for (const std::string& program : {std::string("pcp_reconstruct"), std::string("pcp_train")}) {
         const RunResult spreads = run(bin(program) + " --spreads 0.5,-1 x.ply");

@@ -10,6 +10,7 @@
 #include "pcp/progress.hpp"
 #include "pcp/sampling.hpp"
 #include "pcp/sdf_grid.hpp"
+#include "pcp/sign_repair.hpp"
 #include "pcp/types.hpp"
 
 #include <cstdint>
@@ -106,6 +107,7 @@ struct ReconstructOptions {
     double margin = 0.05;            ///< added around the cloud's unit box on every side (paper: 0.05)
     double iso = 0.0;
     SdfGridOptions grid;             ///< narrow-band settings
+    SignRepairOptions sign_repair;   ///< flip regions whose sign the data does not support (not in the paper)
     ProgressCallback progress;       ///< forwarded to every stage ("prior", "query-net", "sdf-grid")
 
     /// Named presets: "paper", "default", "fast". Throws pcp::Error for other names.
@@ -116,7 +118,8 @@ struct ReconstructReport {
     double seconds_prior = 0, seconds_fit = 0, seconds_grid = 0, seconds_mesh = 0;
     double prior_loss = 0, fit_loss = 0;
     std::int64_t fit_steps = 0;
-    std::int64_t sdf_evaluations = 0;
+    std::int64_t sdf_evaluations = 0;  ///< fine grid, plus the sign repair's coarse grid
+    SignRepairStats sign_repair;
     bool sign_flipped = false;       ///< the fitted SDF was negated so that the outside is positive
     bool closed = false;             ///< every edge of the mesh is shared by exactly two faces
     bool cancelled = false;
