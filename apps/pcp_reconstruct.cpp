@@ -134,8 +134,8 @@ int main(int argc, char** argv) {
             o.sign_repair.enabled = v == "on";
         }
         if (args.count("sign-repair-resolution")) o.sign_repair.resolution = args["sign-repair-resolution"].as<int>();
-        if (o.sign_repair.resolution < 2 || o.sign_repair.resolution > 512)
-            throw pcp::cli::UsageError("--sign-repair-resolution must be in [2, 512]");
+        if (o.sign_repair.resolution < 2 || o.sign_repair.resolution > 256)
+            throw pcp::cli::UsageError("--sign-repair-resolution must be in [2, 256]");
         if (args["builtin-points"].as<long>() < pcp::min_points_for(o.fit.sampling))
             throw pcp::cli::UsageError("--builtin-points must be >= " + std::to_string(pcp::min_points_for(o.fit.sampling)));
         o.fit.seed = o.self_prior.seed = common.seed;

@@ -37,8 +37,8 @@ struct Group {
 
 SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const Eigen::Ref<const PointsF>& points, double iso,
                        const SignRepairOptions& options) {
-    PCP_CHECK(options.resolution >= 2 && options.resolution <= 512,
-              "sign repair: resolution must be in [2, 512] (got " << options.resolution << ")");
+    PCP_CHECK(options.resolution >= 2 && options.resolution <= 256,
+              "sign repair: resolution must be in [2, 256] (got " << options.resolution << ")");
     PCP_CHECK(options.near_cells >= 0 && options.near_spacings >= 0 && std::isfinite(options.near_cells) &&
                   std::isfinite(options.near_spacings),
               "sign repair: near_cells and near_spacings must be finite and >= 0");

@@ -27,6 +27,9 @@ TEST_CASE("e2e: the default shape reconstructs closed, outward and close to its 
                   << ", edges with > 2 faces " << overfull << ", sign flipped " << report.sign_flipped
                   << ", prior loss " << report.prior_loss << ", fit loss " << report.fit_loss);
     CHECK(report.closed);
+    // The sign repair ran on its coarse grid (64^3 samples), and they are counted.
+    CHECK(report.sign_repair.evaluations == 65LL * 65 * 65);
+    CHECK(report.sdf_evaluations > report.sign_repair.evaluations);
     // Outward: the signed volume is positive.
     double volume = 0;
     for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {

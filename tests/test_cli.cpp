@@ -216,11 +216,11 @@ TEST_CASE("cli: pcp_reconstruct's sign-repair options: bad values exit 2 naming 
     INFO("stderr: " << word.err);
     CHECK(word.exit_code == 2);
     CHECK(word.err.find("--sign-repair must be on or off (got 'yes')") != std::string::npos);
-    for (const char* res : {"1", "513"}) {
+    for (const char* res : {"1", "257"}) {
         const RunResult r = run(bin("pcp_reconstruct") + " --sign-repair-resolution " + res + " x.ply");
         INFO("--sign-repair-resolution " << res << " stderr: " << r.err);
         CHECK(r.exit_code == 2);
-        CHECK(r.err.find("--sign-repair-resolution must be in [2, 512]") != std::string::npos);
+        CHECK(r.err.find("--sign-repair-resolution must be in [2, 256]") != std::string::npos);
     }
     const RunResult good = run(bin("pcp_reconstruct") + " --sign-repair off --sign-repair-resolution 32 /nonexistent/x.ply -o '" +
                                (case_dir("sign_repair") / "o.ply").string() + "'");

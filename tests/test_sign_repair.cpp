@@ -143,6 +143,8 @@ TEST_CASE("sign repair: bad options and inputs are errors", "[sign_repair]") {
     pcp::SignRepairOptions opts;
     opts.resolution = 1;
     CHECK_THROWS_AS(pcp::SignRepair(field, kBox, points, 0.0, opts), pcp::Error);
+    opts.resolution = 257;
+    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, points, 0.0, opts), pcp::Error);
     opts = {};
     opts.max_unsupported = 1.0;
     CHECK_THROWS_AS(pcp::SignRepair(field, kBox, points, 0.0, opts), pcp::Error);

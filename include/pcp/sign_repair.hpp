@@ -34,7 +34,7 @@ namespace pcp {
 
 struct SignRepairOptions {
     bool enabled = true;           ///< off: apply() is the identity and no evaluation happens
-    int resolution = 64;           ///< coarse grid cells along each axis of the fine grid's box
+    int resolution = 64;           ///< coarse grid cells along each axis of the fine grid's box (2..256; memory ~ 30 bytes x (R+1)^3)
     double near_cells = 1.5;       ///< tau = max(near_cells * largest coarse spacing,
     double near_spacings = 2.0;    ///<           near_spacings * median distance between neighbouring points)
     double max_unsupported = 0.5;  ///< flip a component when more than this fraction of its boundary is away from data
