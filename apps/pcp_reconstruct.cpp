@@ -51,7 +51,12 @@ int main(int argc, char** argv) {
             ("ascii", "Write an ascii .ply")
             ("resume", "Continue the query-network stage from OUT.ckpt")
             ("builtin-points", "Points sampled on the embedded default shape", cxxopts::value<long>()->default_value(std::to_string(builtin_defaults.points)))
-            ("builtin-noise", "Noise of the embedded default shape", cxxopts::value<double>()->default_value(fmt(builtin_defaults.noise)));
+            ("builtin-noise", "Noise of the embedded default shape", cxxopts::value<double>()->default_value(fmt(builtin_defaults.noise)))
+            ("denoise", "Denoise the input first: passes of projecting each point onto the plane of its nearest "
+                        "neighbours (0 = off; not in the paper; helps noisy scans, rounds sharp edges)",
+             cxxopts::value<int>()->default_value(std::to_string(d.denoise.passes)))
+            ("denoise-neighbors", "Neighbours per plane fit of --denoise (3..256)",
+             cxxopts::value<int>()->default_value(std::to_string(d.denoise.neighbors)));
         options.add_options("Self-prior (stage 1, when no --prior is given)")
             ("prior-epochs", "Self-prior epochs (passes over the input's regions)", cxxopts::value<int>()->default_value(std::to_string(d.self_prior.epochs)))
             ("prior-steps", "Stop the self-prior after this many steps instead (0 = epochs x regions)",
@@ -128,6 +133,11 @@ int main(int argc, char** argv) {
             throw pcp::cli::UsageError("steps, batch, width and learning rate must be positive");
         if (o.resolution < 8 || o.resolution > 2048) throw pcp::cli::UsageError("--resolution must be in [8, 2048]");
         if (!(o.margin >= 0)) throw pcp::cli::UsageError("--margin must be >= 0");
+        if (args.count("denoise")) o.denoise.passes = args["denoise"].as<int>();
+        if (o.denoise.passes < 0 || o.denoise.passes > 100) throw pcp::cli::UsageError("--denoise must be in [0, 100]");
+        if (args.count("denoise-neighbors")) o.denoise.neighbors = args["denoise-neighbors"].as<int>();
+        if (o.denoise.neighbors < 3 || o.denoise.neighbors > 256)
+            throw pcp::cli::UsageError("--denoise-neighbors must be in [3, 256]");
         if (args.count("sign-repair")) {
             const std::string v = args["sign-repair"].as<std::string>();
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--sign-repair must be on or off (got '" + v + "')");
@@ -174,6 +184,9 @@ int main(int argc, char** argv) {
                                                               ", " + std::to_string(o.self_prior.regions.grid) + "^3 grid, normalization " +
                                                               pcp::to_string(o.self_prior.regions.normalization) + ")"},
                                               {"preset", args["preset"].as<std::string>()},
+                                              {"denoise", o.denoise.passes > 0 ? std::to_string(o.denoise.passes) + " passes, " +
+                                                                                     std::to_string(o.denoise.neighbors) + " neighbours"
+                                                                               : "off"},
                                               {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step)},
                                               {"ablation", pcp::to_string(o.fit.ablation)},
                                               {"resolution", std::to_string(o.resolution)},
@@ -195,7 +208,7 @@ int main(int argc, char** argv) {
           << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "")
           << ", sign repair flipped " << report.sign_repair.flipped_components << " of " << report.sign_repair.components
           << " regions away from the data\n"
-          << "| read " << fmt(t_read) << " s | prior " << fmt(report.seconds_prior) << " s (loss " << fmt(report.prior_loss)
+          << "| read " << fmt(t_read) << " s | denoise " << fmt(report.seconds_denoise) << " s | prior " << fmt(report.seconds_prior) << " s (loss " << fmt(report.prior_loss)
           << ") | query net " << fmt(report.seconds_fit) << " s (" << report.fit_steps << " steps, loss " << fmt(report.fit_loss)
           << ") | SDF grid " << fmt(report.seconds_grid) << " s (" << report.sdf_evaluations << " evaluations) | marching cubes "
           << fmt(report.seconds_mesh) << " s | total " << fmt(pcp::cli::seconds_since(t_start)) << " s | peak memory "

@@ -8,6 +8,7 @@
 #include "pcp/reconstruct.hpp"
 
 #include "detail/step_loop.hpp"
+#include "pcp/denoise.hpp"
 #include "pcp/error.hpp"
 #include "pcp/kdtree.hpp"
 #include "pcp/nn/checkpoint.hpp"
@@ -447,6 +448,15 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     ReconstructReport& r = report ? *report : local;
     r = ReconstructReport{};
     check_point_cloud(points, "input cloud", min_points_for(options.fit.sampling));
+    // Optional denoising (include/pcp/denoise.hpp); everything below works on `cloud`.
+    Points denoised;
+    if (options.denoise.passes > 0) {
+        const auto t_denoise = std::chrono::steady_clock::now();
+        denoised = denoise_points(points, options.denoise);
+        check_point_cloud(denoised, "denoised input cloud", min_points_for(options.fit.sampling));
+        r.seconds_denoise = seconds_since(t_denoise);
+    }
+    const Eigen::Ref<const Points> cloud = options.denoise.passes > 0 ? Eigen::Ref<const Points>(denoised) : points;
 
     auto t0 = std::chrono::steady_clock::now();
     LocalPrior self_prior;
@@ -464,7 +474,7 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     if (!prior) {
         PriorTrainOptions po = options.self_prior;
         po.progress = chain(po.progress, options.progress);
-        PriorTrainer trainer({TrainingCloud{"input cloud", Points(points)}}, po);
+        PriorTrainer trainer({TrainingCloud{"input cloud", Points(cloud)}}, po);
         if (!trainer.run()) {
             r.cancelled = true;
             return Mesh{};
@@ -479,7 +489,7 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     t0 = std::chrono::steady_clock::now();
     QueryFitOptions fo = options.fit;
     fo.progress = chain(fo.progress, options.progress);
-    QueryNetFitter fitter(points, *prior, fo);
+    QueryNetFitter fitter(cloud, *prior, fo);
     if (fo.resume && !fo.checkpoint_path.empty() && std::filesystem::exists(fo.checkpoint_path)) fitter.resume(fo.checkpoint_path);
     if (!fitter.run()) {
         r.cancelled = true;

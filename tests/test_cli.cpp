@@ -211,7 +211,7 @@ TEST_CASE("cli: pcp_reconstruct's self-prior region options: bad values exit 2 n
     CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
 }
 
-TEST_CASE("cli: pcp_reconstruct's sign-repair options: bad values exit 2 naming the flag", "[cli]") {
+TEST_CASE("cli: pcp_reconstruct's sign-repair and denoise options: bad values exit 2 naming the flag", "[cli]") {
     const RunResult word = run(bin("pcp_reconstruct") + " --sign-repair yes x.ply");
     INFO("stderr: " << word.err);
     CHECK(word.exit_code == 2);
@@ -222,7 +222,16 @@ TEST_CASE("cli: pcp_reconstruct's sign-repair options: bad values exit 2 naming 
         CHECK(r.exit_code == 2);
         CHECK(r.err.find("--sign-repair-resolution must be in [2, 256]") != std::string::npos);
     }
-    const RunResult good = run(bin("pcp_reconstruct") + " --sign-repair off --sign-repair-resolution 32 /nonexistent/x.ply -o '" +
+    for (const char* passes : {"-1", "101"}) {
+        const RunResult r = run(bin("pcp_reconstruct") + " --denoise " + passes + " x.ply");
+        INFO("--denoise " << passes << " stderr: " << r.err);
+        CHECK(r.exit_code == 2);
+        CHECK(r.err.find("--denoise must be in [0, 100]") != std::string::npos);
+    }
+    const RunResult neighbours = run(bin("pcp_reconstruct") + " --denoise 1 --denoise-neighbors 2 x.ply");
+    CHECK(neighbours.exit_code == 2);
+    CHECK(neighbours.err.find("--denoise-neighbors must be in [3, 256]") != std::string::npos);
+    const RunResult good = run(bin("pcp_reconstruct") + " --sign-repair off --sign-repair-resolution 32 --denoise 2 --denoise-neighbors 30 /nonexistent/x.ply -o '" +
                                (case_dir("sign_repair") / "o.ply").string() + "'");
     INFO("stderr: " << good.err);
     CHECK(good.exit_code == 1);

@@ -5,6 +5,7 @@
 // map it back to the input's frame.
 #pragma once
 
+#include "pcp/denoise.hpp"
 #include "pcp/normalize.hpp"
 #include "pcp/prior.hpp"
 #include "pcp/progress.hpp"
@@ -101,6 +102,7 @@ private:
 };
 
 struct ReconstructOptions {
+    DenoiseOptions denoise;          ///< optional plane-projection denoising of the input (off; not in the paper)
     PriorTrainOptions self_prior = PriorTrainOptions::preset("fast");  ///< used when no prior is given
     QueryFitOptions fit;
     int resolution = 128;            ///< marching-cubes cells along the longest axis (paper: 128 / 512)
@@ -115,7 +117,7 @@ struct ReconstructOptions {
 };
 
 struct ReconstructReport {
-    double seconds_prior = 0, seconds_fit = 0, seconds_grid = 0, seconds_mesh = 0;
+    double seconds_denoise = 0, seconds_prior = 0, seconds_fit = 0, seconds_grid = 0, seconds_mesh = 0;
     double prior_loss = 0, fit_loss = 0;
     std::int64_t fit_steps = 0;
     std::int64_t sdf_evaluations = 0;  ///< fine grid, plus the sign repair's coarse grid
