@@ -48,9 +48,9 @@ dry-run)
     check "missing input reported" contains "$work/stderr" "skip lost_case: missing input $work/data/lost/input.ply"
     check "only ABC cases by default" lacks "$work/stdout" "object_case"
     check "no-shift command" contains "$work/stdout" \
-        "flock /tmp/some.lock /usr/bin/time -v -o $o/no-shift.time /nonexistent/bin/pcp_reconstruct $work/data/fine/input.ply -o $o/no-shift.ply --preset fast --ablation no-shift --prior-grid 6 --prior-normalization both --steps 300 --prior-epochs 3 >$o/no-shift.log 2>&1"
+        "flock /tmp/some.lock /usr/bin/time -v -o $o/no-shift.time /nonexistent/bin/pcp_reconstruct $work/data/fine/input.ply -o $o/no-shift.ply --preset fast --ablation no-shift --prior-grid 6 --prior-normalization both --sign-repair on --steps 300 --prior-epochs 3 >$o/no-shift.log 2>&1"
     check "grid1 command" contains "$work/stdout" \
-        "flock /tmp/some.lock /usr/bin/time -v -o $o/grid1.time /nonexistent/bin/pcp_reconstruct $work/data/fine/input.ply -o $o/grid1.ply --preset fast --ablation none --prior-grid 1 --prior-normalization both --steps 300 --prior-epochs 3 >$o/grid1.log 2>&1"
+        "flock /tmp/some.lock /usr/bin/time -v -o $o/grid1.time /nonexistent/bin/pcp_reconstruct $work/data/fine/input.ply -o $o/grid1.ply --preset fast --ablation none --prior-grid 1 --prior-normalization both --sign-repair on --steps 300 --prior-epochs 3 >$o/grid1.log 2>&1"
     for v in no-shift grid1; do
         check "eval $v" contains "$work/stdout" \
             "flock /tmp/some.lock /nonexistent/bin/pcp_eval $o/$v.ply $work/data/fine/gt.ply --protocol p2s --tsv >$o/$v.p2s.tsv 2>$o/$v.p2s.err"
@@ -109,6 +109,7 @@ EOF
     check "table 9: no-shift next to the paper" contains "$md" '| No Δq | `no-shift` | 1 of 2 | 3.000 | 0.9250 | 1.50 | 3.13 | 0.924 | 1.50 |'
     check "table 9: failed direct has no mean" contains "$md" "| Direct q_l' | \`direct\` | 0 of 2 | - | - | - | 2.78 | 0.935 | 1.33 |"
     check "table 9: not selected" contains "$md" "| No f_l' | \`free-code\`: not run (not in --variants) | - | - | - | - | 4.03 | 0.908 | 1.93 |"
+    check "sign-repair table: not selected" contains "$md" "| Ours without the sign repair | \`no-repair\`: not run (not in --variants) |"
     check "table 9: ours" contains "$md" '| Ours | `ours` | 1 of 2 | 2.000 | 0.9500 | 1.00 | 2.090 | 0.945 | 1.00 |'
     check "table 12: grid1" contains "$md" '| 0^3 (no split) | `grid1` | 1 of 2 | 5.000 | 0.9000 | 2.50 | 12.06 | 0.904 | 5.77 |'
     check "table 12: Lap not implemented" contains "$md" "| Lap | not implemented: overlapping"
@@ -118,7 +119,7 @@ EOF
     check "per case: failure row" contains "$md" "| fine_case | 200 | \`direct\` | failed (exit 3, see $work/out/fine_case/direct.log) |"
     check "per case: floor" contains "$md" '| fine_case | 200 | floor (GT vs GT) | | | | | 0.040 | 0.9800 |'
     check "per case: skipped" contains "$md" "| lost_case | 100 | - | skipped: missing input $work/data/lost/input.ply"
-    check "pass-through options reached the tool" contains "$work/out/fine_case/ours.log" "--prior-normalization both --steps 5"
+    check "pass-through options reached the tool" contains "$work/out/fine_case/ours.log" "--prior-normalization both --sign-repair on --steps 5"
     check "results.tsv" contains "$work/out/results.tsv" $'fine_case\tgrid1\tok\t'
     check "no temp file left" [ -z "$(find "$work" -maxdepth 1 -name '.ABL.md.*')" ]
 
