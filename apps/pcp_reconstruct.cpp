@@ -53,8 +53,9 @@ int main(int argc, char** argv) {
             ("builtin-points", "Points sampled on the embedded default shape", cxxopts::value<long>()->default_value(std::to_string(builtin_defaults.points)))
             ("builtin-noise", "Noise of the embedded default shape", cxxopts::value<double>()->default_value(fmt(builtin_defaults.noise)))
             ("denoise", "Denoise the input first: passes of projecting each point onto the plane of its nearest "
-                        "neighbours (0 = off; not in the paper; helps noisy scans, rounds sharp edges)",
-             cxxopts::value<int>()->default_value(std::to_string(d.denoise.passes)))
+                        "neighbours (0 = off), or auto (3 passes if the cloud is noisy: pcp::noise_ratio > 0.25); "
+                        "not in the paper; helps noisy scans, thins thin parts of clean ones",
+             cxxopts::value<std::string>()->default_value(d.denoise.automatic ? "auto" : std::to_string(d.denoise.passes)))
             ("denoise-neighbors", "Neighbours per plane fit of --denoise (3..256)",
              cxxopts::value<int>()->default_value(std::to_string(d.denoise.neighbors)));
         options.add_options("Self-prior (stage 1, when no --prior is given)")
@@ -133,8 +134,21 @@ int main(int argc, char** argv) {
             throw pcp::cli::UsageError("steps, batch, width and learning rate must be positive");
         if (o.resolution < 8 || o.resolution > 2048) throw pcp::cli::UsageError("--resolution must be in [8, 2048]");
         if (!(o.margin >= 0)) throw pcp::cli::UsageError("--margin must be >= 0");
-        if (args.count("denoise")) o.denoise.passes = args["denoise"].as<int>();
-        if (o.denoise.passes < 0 || o.denoise.passes > 100) throw pcp::cli::UsageError("--denoise must be in [0, 100]");
+        if (args.count("denoise")) {
+            const std::string v = args["denoise"].as<std::string>();
+            o.denoise.automatic = v == "auto";
+            if (!o.denoise.automatic) {
+                std::size_t used = 0;
+                int passes = -1;
+                try {
+                    passes = std::stoi(v, &used);
+                } catch (const std::exception&) {
+                }
+                if (used != v.size() || passes < 0 || passes > 100)
+                    throw pcp::cli::UsageError("--denoise must be auto or a number of passes in [0, 100] (got '" + v + "')");
+                o.denoise.passes = passes;
+            }
+        }
         if (args.count("denoise-neighbors")) o.denoise.neighbors = args["denoise-neighbors"].as<int>();
         if (o.denoise.neighbors < 3 || o.denoise.neighbors > 256)
             throw pcp::cli::UsageError("--denoise-neighbors must be in [3, 256]");
@@ -184,9 +198,10 @@ int main(int argc, char** argv) {
                                                               ", " + std::to_string(o.self_prior.regions.grid) + "^3 grid, normalization " +
                                                               pcp::to_string(o.self_prior.regions.normalization) + ")"},
                                               {"preset", args["preset"].as<std::string>()},
-                                              {"denoise", o.denoise.passes > 0 ? std::to_string(o.denoise.passes) + " passes, " +
-                                                                                     std::to_string(o.denoise.neighbors) + " neighbours"
-                                                                               : "off"},
+                                              {"denoise", o.denoise.automatic    ? "auto, " + std::to_string(o.denoise.neighbors) + " neighbours"
+                                                          : o.denoise.passes > 0 ? std::to_string(o.denoise.passes) + " passes, " +
+                                                                                       std::to_string(o.denoise.neighbors) + " neighbours"
+                                                                                 : "off"},
                                               {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step)},
                                               {"ablation", pcp::to_string(o.fit.ablation)},
                                               {"resolution", std::to_string(o.resolution)},
@@ -208,7 +223,8 @@ int main(int argc, char** argv) {
           << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "")
           << ", sign repair flipped " << report.sign_repair.flipped_components << " of " << report.sign_repair.components
           << " regions away from the data\n"
-          << "| read " << fmt(t_read) << " s | denoise " << fmt(report.seconds_denoise) << " s | prior " << fmt(report.seconds_prior) << " s (loss " << fmt(report.prior_loss)
+          << "| read " << fmt(t_read) << " s | denoise " << fmt(report.seconds_denoise) << " s (" << report.denoise_passes
+          << " passes) | prior " << fmt(report.seconds_prior) << " s (loss " << fmt(report.prior_loss)
           << ") | query net " << fmt(report.seconds_fit) << " s (" << report.fit_steps << " steps, loss " << fmt(report.fit_loss)
           << ") | SDF grid " << fmt(report.seconds_grid) << " s (" << report.sdf_evaluations << " evaluations) | marching cubes "
           << fmt(report.seconds_mesh) << " s | total " << fmt(pcp::cli::seconds_since(t_start)) << " s | peak memory "

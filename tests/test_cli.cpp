@@ -222,16 +222,17 @@ TEST_CASE("cli: pcp_reconstruct's sign-repair and denoise options: bad values ex
         CHECK(r.exit_code == 2);
         CHECK(r.err.find("--sign-repair-resolution must be in [2, 256]") != std::string::npos);
     }
-    for (const char* passes : {"-1", "101"}) {
+    for (const char* passes : {"-1", "101", "3x", "automatic"}) {
         const RunResult r = run(bin("pcp_reconstruct") + " --denoise " + passes + " x.ply");
         INFO("--denoise " << passes << " stderr: " << r.err);
         CHECK(r.exit_code == 2);
-        CHECK(r.err.find("--denoise must be in [0, 100]") != std::string::npos);
+        CHECK(r.err.find("--denoise must be auto or a number of passes in [0, 100] (got '" + std::string(passes) + "')") !=
+              std::string::npos);
     }
     const RunResult neighbours = run(bin("pcp_reconstruct") + " --denoise 1 --denoise-neighbors 2 x.ply");
     CHECK(neighbours.exit_code == 2);
     CHECK(neighbours.err.find("--denoise-neighbors must be in [3, 256]") != std::string::npos);
-    const RunResult good = run(bin("pcp_reconstruct") + " --sign-repair off --sign-repair-resolution 32 --denoise 2 --denoise-neighbors 30 /nonexistent/x.ply -o '" +
+    const RunResult good = run(bin("pcp_reconstruct") + " --sign-repair off --sign-repair-resolution 32 --denoise auto --denoise-neighbors 30 /nonexistent/x.ply -o '" +
                                (case_dir("sign_repair") / "o.ply").string() + "'");
     INFO("stderr: " << good.err);
     CHECK(good.exit_code == 1);

@@ -120,6 +120,7 @@ struct ReconstructReport {
     double seconds_denoise = 0, seconds_prior = 0, seconds_fit = 0, seconds_grid = 0, seconds_mesh = 0;
     double prior_loss = 0, fit_loss = 0;
     std::int64_t fit_steps = 0;
+    int denoise_passes = 0;          ///< passes applied to the input (DenoiseOptions; resolved when automatic)
     std::int64_t sdf_evaluations = 0;  ///< fine grid, plus the sign repair's coarse grid
     SignRepairStats sign_repair;
     bool sign_flipped = false;       ///< the fitted SDF was negated so that the outside is positive
