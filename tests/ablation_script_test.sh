@@ -16,19 +16,10 @@ mode=$1
 work=$2
 script="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/bench/run_ablations.sh"
 
-failed=0
-check() {  # check DESCRIPTION COMMAND...
-    local what=$1; shift
-    if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; failed=1; fi
-}
-contains() { grep -qF -- "$2" "$1"; }
-lacks() { ! grep -qF -- "$2" "$1"; }
+# shellcheck source=tests/script_check.sh
+source "$(dirname "${BASH_SOURCE[0]}")/script_check.sh"
 
-rm -rf "$work"
-mkdir -p "$work/data/fine" "$work/data/lost"
-printf 'dummy\n' >"$work/data/fine/input.ply"
-printf 'dummy\n' >"$work/data/fine/gt.ply"
-printf 'dummy\n' >"$work/data/lost/gt.ply"   # its input.ply is missing
+make_case_files "$work"
 {
     printf 'name\tcategory\tinput\tgt_mesh\tgt_sdf\tpoints\tnote\n'
     printf 'fine_case\tabc\tfine/input.ply\tfine/gt.ply\t-\t200\tall there\n'
