@@ -11,6 +11,29 @@
 die_usage() { echo "$prog: $*" >&2; echo "$prog: see --help" >&2; exit 2; }
 need_value() { [ $# -ge 2 ] && [ -n "$2" ] || die_usage "$1 needs a value"; }
 
+# bench_common_option ARGS... : parses one option shared by both scripts (--manifest, --cases,
+# --preset, --out, --markdown, --bin, --lock, --dry-run) into the caller's variables; sets
+# bench_shift to the number of words it used, 0 if $1 is not one of them.
+bench_common_option() {
+    bench_shift=2
+    case "$1" in
+        --manifest) need_value "$@"; manifest=$2 ;;
+        --cases) need_value "$@"; cases_filter=$2 ;;
+        --preset) need_value "$@"; preset=$2 ;;
+        --out) need_value "$@"; out_dir=$2 ;;
+        --markdown) need_value "$@"; markdown=$2 ;;
+        --bin) need_value "$@"; bin_dir=$2 ;;
+        --lock) need_value "$@"; lock_file=$2 ;;
+        --dry-run) dry_run=1; bench_shift=1 ;;
+        *) bench_shift=0 ;;
+    esac
+}
+
+# bench_check_preset : the --preset value is one pcp_reconstruct knows.
+bench_check_preset() {
+    case "$preset" in paper | default | fast) ;; *) die_usage "--preset must be paper, default or fast (got '$preset')" ;; esac
+}
+
 # bench_command_line SCRIPT ARGS... : the command as typed; words that need no quoting are shown as
 # they are (printf %q would escape the comma of --cases a,b).
 bench_command_line() {

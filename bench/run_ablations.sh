@@ -62,23 +62,17 @@ extra_args=()
 usage() { sed -n '/^# Usage:/,/^set -uo/p' "${BASH_SOURCE[0]}" | sed '$d' | sed 's/^# \{0,1\}//'; }
 
 while [ $# -gt 0 ]; do
+    bench_common_option "$@"
+    if [ "$bench_shift" -gt 0 ]; then shift "$bench_shift"; continue; fi
     case "$1" in
-        --manifest) need_value "$@"; manifest=$2; shift 2 ;;
-        --cases) need_value "$@"; cases_filter=$2; shift 2 ;;
         --category) need_value "$@"; category_filter=$2; category_given=1; shift 2 ;;
         --variants) need_value "$@"; variants_filter=$2; shift 2 ;;
-        --preset) need_value "$@"; preset=$2; shift 2 ;;
-        --out) need_value "$@"; out_dir=$2; shift 2 ;;
-        --markdown) need_value "$@"; markdown=$2; shift 2 ;;
-        --bin) need_value "$@"; bin_dir=$2; shift 2 ;;
-        --lock) need_value "$@"; lock_file=$2; shift 2 ;;
-        --dry-run) dry_run=1; shift ;;
         -h | --help) usage; exit 0 ;;
         --) shift; extra_args=("$@"); break ;;
         *) die_usage "unknown argument '$1'" ;;
     esac
 done
-case "$preset" in paper | default | fast) ;; *) die_usage "--preset must be paper, default or fast (got '$preset')" ;; esac
+bench_check_preset
 
 # ---- the variants: name -> pcp_reconstruct's --ablation, --prior-grid, --prior-normalization ----
 readonly ALL_VARIANTS=(ours no-shift direct free-code pointnet-code no-prior tune-prior
