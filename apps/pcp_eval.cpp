@@ -8,7 +8,9 @@
 #include "pcp/files.hpp"
 #include "pcp/io.hpp"
 
+#include <cmath>
 #include <cstdio>
+#include <optional>
 #include <iostream>
 #include <sstream>
 
@@ -73,6 +75,41 @@ void print_metrics_json(std::ostream& out, const pcp::Metrics& m) {
     out << "]}";
 }
 
+struct SdfReport {
+    pcp::SignAgreement result;
+    std::string convention;
+};
+
+/// Sign agreement of `pred` with the samples of `path`, binned at 0.5, 1, 2, 4 and 8 % of the
+/// samples' bounding box's longest edge.
+SdfReport sign_report(const pcp::Mesh& pred, const GroundTruth& gt, const std::string& path, const std::string& convention) {
+    const pcp::PointCloud samples = pcp::read_point_cloud(path);
+    PCP_CHECK(samples.properties.count("sdf"), path << ": no property 'sdf' (signed-distance samples need one)");
+    PCP_CHECK(samples.points.rows() > 0, path << ": no samples");
+    const Eigen::VectorXd& sdf = samples.properties.at("sdf");
+    PCP_CHECK(sdf.allFinite(), path << ": the property 'sdf' has values that are not finite");
+    SdfReport report;
+    pcp::SdfConvention c;
+    if (convention == "negative-inside") {
+        c = pcp::SdfConvention::NegativeInside;
+    } else if (convention == "positive-inside") {
+        c = pcp::SdfConvention::PositiveInside;
+    } else {
+        if (!gt.is_mesh) throw pcp::cli::UsageError("--sdf-convention auto needs a ground-truth mesh; name the convention");
+        double reference = 0;
+        c = pcp::detect_sdf_convention(gt.mesh, samples.points, sdf, &reference);
+        PCP_CHECK(reference >= 0.9, path << ": the ground-truth mesh agrees with neither sign convention of these samples (best "
+                                         << reference << "); are they in its frame?");
+    }
+    report.convention = c == pcp::SdfConvention::NegativeInside ? "negative inside" : "positive inside";
+    const double extent = (samples.points.colwise().maxCoeff() - samples.points.colwise().minCoeff()).maxCoeff();
+    std::vector<double> edges;
+    for (double f : {0.005, 0.01, 0.02, 0.04, 0.08}) edges.push_back(f * extent);
+    if (!(extent > 0)) edges.clear();
+    report.result = pcp::sign_agreement(pred, samples.points, sdf, c, edges);
+    return report;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -88,6 +125,10 @@ int main(int argc, char** argv) {
             ("samples", "Surface samples per side (0 = the protocol's)", cxxopts::value<long>()->default_value(std::to_string(defaults.samples)))
             ("thresholds", "F-score thresholds, comma-separated (default: the protocol's)", cxxopts::value<std::string>()->default_value(""))
             ("gt-points", "Read GT as a point cloud with normals even if it is a .ply")
+            ("sdf-samples", "Also report how often PRED puts these signed-distance samples (a point cloud with a property 'sdf', in GT's frame) on the right side, by |sdf|",
+             cxxopts::value<std::string>()->default_value(""))
+            ("sdf-convention", "auto (judged by GT's winding numbers; needs a GT mesh) | negative-inside | positive-inside",
+             cxxopts::value<std::string>()->default_value("auto"))
             ("no-floor", "Skip the floor (GT against an independent sampling of itself)")
             ("json", "Print JSON instead of a table")
             ("tsv", "Print one tab-separated line per metric: name, value, floor (\"-\" without one)");
@@ -111,11 +152,18 @@ int main(int argc, char** argv) {
         opts.seed = common.seed;
         opts.with_floor = !args.count("no-floor");
 
+        const std::string convention = args["sdf-convention"].as<std::string>();
+        if (convention != "auto" && convention != "negative-inside" && convention != "positive-inside")
+            throw pcp::cli::UsageError("--sdf-convention: '" + convention + "' is not auto, negative-inside or positive-inside");
         const std::string pred_path = args["pred"].as<std::string>(), gt_path = args["gt"].as<std::string>();
         const pcp::Mesh pred = pcp::read_mesh(pred_path);
         PCP_CHECK(pred.faces.rows() > 0, pred_path << ": the predicted mesh has no faces");
         const GroundTruth gt = read_ground_truth(gt_path, args.count("gt-points") > 0);
         const pcp::EvalResult r = gt.is_mesh ? pcp::evaluate(pred, gt.mesh, opts) : pcp::evaluate(pred, gt.points, opts);
+        const std::string sdf_path = args["sdf-samples"].as<std::string>();
+        const std::optional<SdfReport> sdf =
+            sdf_path.empty() ? std::nullopt
+                             : std::optional<SdfReport>(sign_report(pred, gt, sdf_path, convention));
 
         if (args.count("json")) {
             std::cout.precision(9);
@@ -126,6 +174,18 @@ int main(int argc, char** argv) {
             if (opts.with_floor && gt.is_mesh) {
                 std::cout << ", \"floor\": ";
                 print_metrics_json(std::cout, r.floor);
+            }
+            if (sdf) {
+                std::cout << ", \"sign_agreement\": {\"samples\": " << sdf->result.samples << ", \"fraction\": " << sdf->result.fraction()
+                          << ", \"convention\": \"" << sdf->convention << "\", \"bins\": [";
+                for (std::size_t b = 0; b < sdf->result.bins.size(); ++b) {
+                    const auto& bin = sdf->result.bins[b];
+                    std::cout << (b ? ", " : "") << "{\"lower\": " << bin.lower << ", \"upper\": ";
+                    if (std::isinf(bin.upper)) std::cout << "null";
+                    else std::cout << bin.upper;
+                    std::cout << ", \"samples\": " << bin.samples << ", \"agree\": " << bin.agree << "}";
+                }
+                std::cout << "]}";
             }
             std::cout << "}" << std::endl;
             return 0;
@@ -152,6 +212,12 @@ int main(int argc, char** argv) {
                 line("fscore@" + join_thresholds({r.metrics.fscores[i].threshold}), r.metrics.fscores[i].fscore, floor,
                      floor ? r.floor.fscores[i].fscore : 0.0);
             if (gt.is_mesh) line("scene_error", r.scene_error, false, 0);
+            if (sdf) {
+                line("sign_agreement", sdf->result.fraction(), false, 0);
+                for (const auto& bin : sdf->result.bins)
+                    line("sign_agreement|sdf|>=" + join_thresholds({bin.lower}), bin.samples ? static_cast<double>(bin.agree) / bin.samples : 0.0,
+                         false, 0);
+            }
             std::cout << std::flush;
             return 0;
         }
@@ -175,6 +241,13 @@ int main(int argc, char** argv) {
             row(name.c_str(), r.metrics.fscores[i].fscore, floor ? r.floor.fscores[i].fscore : 0.0);
         }
         if (gt.is_mesh) row("scene error", r.scene_error, 0.0);
+        if (sdf) {
+            std::cout << "\nsign agreement with " << sdf_path << " (" << sdf->convention << "): " << sdf->result.agree << " of "
+                      << sdf->result.samples << " = " << sdf->result.fraction() << "\n| abs(sdf) from | to | samples | agreement |\n|---|---|---|---|\n";
+            for (const auto& bin : sdf->result.bins)
+                std::cout << "| " << bin.lower << " | " << bin.upper << " | " << bin.samples << " | "
+                          << (bin.samples ? static_cast<double>(bin.agree) / bin.samples : 0.0) << " |\n";
+        }
         return 0;
     });
 }

@@ -13,6 +13,8 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <numeric>
 
 namespace pcp {
@@ -214,6 +216,54 @@ Eigen::VectorXd winding_numbers(const Mesh& mesh, const Eigen::Ref<const Points>
         w(i) = total / (4.0 * 3.14159265358979323846);
     }
     return w;
+}
+
+namespace {
+
+SignAgreement count_agreement(const Eigen::VectorXd& winding, const Eigen::VectorXd& sdf, SdfConvention convention,
+                              const std::vector<double>& bin_edges) {
+    SignAgreement result;
+    std::vector<double> edges = bin_edges;
+    if (edges.empty() || edges.front() > 0) edges.insert(edges.begin(), 0.0);
+    for (std::size_t b = 0; b < edges.size(); ++b)
+        result.bins.push_back({edges[b], b + 1 < edges.size() ? edges[b + 1] : std::numeric_limits<double>::infinity(), 0, 0});
+    for (Eigen::Index i = 0; i < sdf.size(); ++i) {
+        const bool truth_inside = convention == SdfConvention::NegativeInside ? sdf(i) < 0 : sdf(i) > 0;
+        const bool ok = (winding(i) > 0.5) == truth_inside;
+        std::size_t b = 0;
+        while (b + 1 < result.bins.size() && std::abs(sdf(i)) >= result.bins[b + 1].lower) ++b;
+        ++result.samples;
+        ++result.bins[b].samples;
+        result.agree += ok;
+        result.bins[b].agree += ok;
+    }
+    return result;
+}
+
+Eigen::VectorXd checked_winding(const Mesh& mesh, const Eigen::Ref<const Points>& points, const Eigen::VectorXd& sdf) {
+    PCP_CHECK(sdf.size() == points.rows(), "sign agreement: " << points.rows() << " points but " << sdf.size() << " sdf values");
+    PCP_CHECK(sdf.allFinite(), "sign agreement: the sdf values are not all finite");
+    return winding_numbers(mesh, points);
+}
+
+}  // namespace
+
+SignAgreement sign_agreement(const Mesh& mesh, const Eigen::Ref<const Points>& points, const Eigen::VectorXd& sdf,
+                             SdfConvention convention, const std::vector<double>& bin_edges) {
+    for (std::size_t b = 0; b < bin_edges.size(); ++b)
+        PCP_CHECK(std::isfinite(bin_edges[b]) && bin_edges[b] >= 0 && (b == 0 || bin_edges[b] > bin_edges[b - 1]),
+                  "sign agreement: bin edges must be finite, non-negative and increasing");
+    return count_agreement(checked_winding(mesh, points, sdf), sdf, convention, bin_edges);
+}
+
+SdfConvention detect_sdf_convention(const Mesh& reference, const Eigen::Ref<const Points>& points,
+                                    const Eigen::VectorXd& sdf, double* agreement) {
+    const Eigen::VectorXd w = checked_winding(reference, points, sdf);
+    const SignAgreement negative = count_agreement(w, sdf, SdfConvention::NegativeInside, {});
+    const SignAgreement positive = count_agreement(w, sdf, SdfConvention::PositiveInside, {});
+    const bool positive_inside = positive.agree > negative.agree;
+    if (agreement) *agreement = positive_inside ? positive.fraction() : negative.fraction();
+    return positive_inside ? SdfConvention::PositiveInside : SdfConvention::NegativeInside;
 }
 
 Eigen::VectorXd point_to_mesh_distance(const Mesh& mesh, const Eigen::Ref<const Points>& points) {

@@ -2,6 +2,7 @@
 // the problem, a non-zero exit code, and leaves no output file behind.
 #include "pcp/io.hpp"
 #include "pcp/shapes.hpp"
+#include "test_meshes.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -249,4 +250,46 @@ TEST_CASE("cli: bad --spreads and --uniform-fraction exit 2 naming the flag", "[
         CHECK(uniform.exit_code == 2);
         CHECK(uniform.err.find("--uniform-fraction") != std::string::npos);
     }
+}
+
+TEST_CASE("cli: pcp_eval --sdf-samples reports the sign agreement; bad sample files exit 1 naming the file", "[cli]") {
+    const fs::path dir = case_dir("eval_sdf");
+    const pcp::Mesh sphere = pcp::test::uv_sphere(1.0, 16, 32);
+    pcp::write_mesh((dir / "sphere.ply").string(), sphere);
+    pcp::PointCloud samples;
+    samples.points.resize(4, 3);
+    samples.points << 0.2, 0, 0, 0.5, 0.5, 0, 1.5, 0, 0, 0, 0, 3;
+    Eigen::VectorXd sdf(4);
+    sdf << -0.8, -0.29, 0.5, 2.0;  // negative inside
+    samples.properties["sdf"] = sdf;
+    pcp::write_point_cloud((dir / "sdf.ply").string(), samples);
+
+    const fs::path out = dir / "out.tsv";
+    const std::string eval = bin("pcp_eval") + " '" + (dir / "sphere.ply").string() + "' '" + (dir / "sphere.ply").string() +
+                             "' --tsv --no-floor --samples 2000 --sdf-samples '";
+    REQUIRE(std::system((eval + (dir / "sdf.ply").string() + "' > '" + out.string() + "'").c_str()) == 0);
+    std::ifstream in(out);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    INFO(text);
+    CHECK(text.find("sign_agreement\t1\t-\n") != std::string::npos);
+
+    // The same samples with the opposite convention forced: nothing agrees.
+    REQUIRE(std::system((eval + (dir / "sdf.ply").string() + "' --sdf-convention positive-inside > '" + out.string() + "'").c_str()) == 0);
+    std::ifstream in_flipped(out);
+    const std::string flipped((std::istreambuf_iterator<char>(in_flipped)), std::istreambuf_iterator<char>());
+    INFO(flipped);
+    CHECK(flipped.find("sign_agreement\t0\t-\n") != std::string::npos);
+
+    pcp::PointCloud no_sdf;
+    no_sdf.points = samples.points;
+    pcp::write_point_cloud((dir / "plain.ply").string(), no_sdf);
+    const RunResult missing = run(eval + (dir / "plain.ply").string() + "'");
+    INFO("stderr: " << missing.err);
+    CHECK(missing.exit_code == 1);
+    CHECK(missing.err.find("plain.ply") != std::string::npos);
+    CHECK(missing.err.find("no property 'sdf'") != std::string::npos);
+
+    const RunResult bad_convention = run(eval + (dir / "sdf.ply").string() + "' --sdf-convention inside");
+    CHECK(bad_convention.exit_code == 2);
+    CHECK(bad_convention.err.find("--sdf-convention") != std::string::npos);
 }

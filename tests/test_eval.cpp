@@ -5,6 +5,10 @@
 
 #include <catch2/catch.hpp>
 
+#include <cmath>
+#include <limits>
+#include <vector>
+
 TEST_CASE("eval: a hand-computed three-point case", "[eval]") {
     // pred = {(0,0,0), (1,0,0)} with normals +z; gt = {(0,0,0.5)} with normal +x.
     // pred->gt distances: 0.5 and sqrt(1.25); gt->pred: 0.5.
@@ -105,4 +109,49 @@ TEST_CASE("eval: winding numbers are 1 inside and 0 outside a closed mesh", "[ev
     pcp::Mesh inward = sphere;  // flipped orientation: -1 inside
     inward.faces.col(1).swap(inward.faces.col(2));
     CHECK(pcp::winding_numbers(inward, p)(0) == Approx(-1.0).margin(1e-9));
+}
+
+TEST_CASE("eval: sign agreement against signed-distance samples, overall and by |sdf|", "[eval]") {
+    const pcp::Mesh sphere = pcp::test::uv_sphere(1.0, 20, 40);
+    // Samples on the x axis at radius r, with the sphere's true signed distance r - 1.
+    const std::vector<double> radii = {0.2, 0.95, 0.99, 1.02, 1.2, 2.0};
+    pcp::Points p(radii.size(), 3);
+    Eigen::VectorXd sdf(radii.size());
+    for (std::size_t i = 0; i < radii.size(); ++i) {
+        p.row(i) << radii[i], 0, 0;
+        sdf(i) = radii[i] - 1.0;
+    }
+    const pcp::SignAgreement all = pcp::sign_agreement(sphere, p, sdf, pcp::SdfConvention::NegativeInside, {0.03, 0.5});
+    CHECK(all.samples == 6);
+    CHECK(all.agree == 6);
+    CHECK(all.fraction() == 1.0);
+    REQUIRE(all.bins.size() == 3);  // [0, 0.03), [0.03, 0.5), [0.5, inf)
+    CHECK(all.bins[0].samples == 2);  // 0.99 and 1.02
+    CHECK(all.bins[1].samples == 2);  // 0.95 and 1.2
+    CHECK(all.bins[2].samples == 2);  // 0.2 and 2.0
+    CHECK(std::isinf(all.bins[2].upper));
+
+    // The opposite convention disagrees everywhere; detection picks the right one.
+    CHECK(pcp::sign_agreement(sphere, p, sdf, pcp::SdfConvention::PositiveInside).agree == 0);
+    double best = 0;
+    CHECK(pcp::detect_sdf_convention(sphere, p, sdf, &best) == pcp::SdfConvention::NegativeInside);
+    CHECK(best == 1.0);
+    CHECK(pcp::detect_sdf_convention(sphere, p, -sdf) == pcp::SdfConvention::PositiveInside);
+
+    // A smaller sphere (radius 0.9) puts the samples at 0.95 and 0.99 outside: 4 of 6, and both
+    // misses fall in the bins of the near samples.
+    const pcp::SignAgreement smaller =
+        pcp::sign_agreement(pcp::test::uv_sphere(0.9, 20, 40), p, sdf, pcp::SdfConvention::NegativeInside, {0.03, 0.5});
+    CHECK(smaller.agree == 4);
+    CHECK(smaller.bins[0].agree == 1);
+    CHECK(smaller.bins[1].agree == 1);
+    CHECK(smaller.bins[2].agree == 2);
+
+    CHECK_THROWS_WITH(pcp::sign_agreement(sphere, p, sdf.head(3), pcp::SdfConvention::NegativeInside),
+                      Catch::Contains("6 points but 3 sdf values"));
+    CHECK_THROWS_WITH(pcp::sign_agreement(sphere, p, sdf, pcp::SdfConvention::NegativeInside, {0.5, 0.1}),
+                      Catch::Contains("increasing"));
+    Eigen::VectorXd bad = sdf;
+    bad(2) = std::numeric_limits<double>::quiet_NaN();
+    CHECK_THROWS_WITH(pcp::sign_agreement(sphere, p, bad, pcp::SdfConvention::NegativeInside), Catch::Contains("not all finite"));
 }

@@ -80,6 +80,31 @@ EvalResult evaluate(const Mesh& pred, const SurfaceSamples& gt_points, const Eva
 /// outside a closed, outward-oriented mesh. O(N x faces), OpenMP-parallel over points.
 Eigen::VectorXd winding_numbers(const Mesh& mesh, const Eigen::Ref<const Points>& points);
 
+/// How often a mesh puts signed-distance samples on the right side, overall and by |sdf|.
+struct SignAgreement {
+    struct Bin {
+        double lower = 0, upper = 0;  ///< |sdf| in [lower, upper)
+        Eigen::Index samples = 0, agree = 0;
+    };
+    Eigen::Index samples = 0, agree = 0;
+    std::vector<Bin> bins;
+    double fraction() const { return samples ? static_cast<double>(agree) / static_cast<double>(samples) : 0.0; }
+};
+
+/// Which sign of a signed-distance file means inside.
+enum class SdfConvention { NegativeInside, PositiveInside };
+
+/// Compares the side of `mesh` (inside: winding number > 0.5) with the sign of `sdf` at `points`
+/// (N x 3, same frame), binned by |sdf| at `bin_edges` (increasing; the last bin is open). A
+/// sample with sdf exactly 0 counts as outside.
+SignAgreement sign_agreement(const Mesh& mesh, const Eigen::Ref<const Points>& points, const Eigen::VectorXd& sdf,
+                             SdfConvention convention, const std::vector<double>& bin_edges = {});
+
+/// The convention of `sdf` judged by a reference mesh: the one that agrees with its winding
+/// numbers on more samples. `agreement` (optional) receives that convention's agreement fraction.
+SdfConvention detect_sdf_convention(const Mesh& reference, const Eigen::Ref<const Points>& points,
+                                    const Eigen::VectorXd& sdf, double* agreement = nullptr);
+
 /// Distance from each row of `points` (N x 3) to the nearest triangle of `mesh` (exact).
 Eigen::VectorXd point_to_mesh_distance(const Mesh& mesh, const Eigen::Ref<const Points>& points);
 
