@@ -85,7 +85,10 @@ int main(int argc, char** argv) {
                             "grid (not in the paper; include/pcp/sign_repair.hpp)",
              cxxopts::value<std::string>()->default_value(d.sign_repair.enabled ? "on" : "off"))
             ("sign-repair-resolution", "Cells per axis of the sign repair's coarse grid",
-             cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.resolution)));
+             cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.resolution)))
+            ("sign-repair-parity", "Also flip coarse samples whose sign disagrees with at least this many of their 6 "
+                                   "axis-ray parity votes (0 = off, 1..6; include/pcp/sign_repair.hpp)",
+             cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.parity_votes)));
         options.parse_positional({"input"});
         pcp::cli::add_common_options(options);
         cxxopts::ParseResult args;
@@ -160,6 +163,9 @@ int main(int argc, char** argv) {
         if (args.count("sign-repair-resolution")) o.sign_repair.resolution = args["sign-repair-resolution"].as<int>();
         if (o.sign_repair.resolution < 2 || o.sign_repair.resolution > 256)
             throw pcp::cli::UsageError("--sign-repair-resolution must be in [2, 256]");
+        if (args.count("sign-repair-parity")) o.sign_repair.parity_votes = args["sign-repair-parity"].as<int>();
+        if (o.sign_repair.parity_votes < 0 || o.sign_repair.parity_votes > 6)
+            throw pcp::cli::UsageError("--sign-repair-parity must be in [0, 6]");
         if (args["builtin-points"].as<long>() < pcp::min_points_for(o.fit.sampling))
             throw pcp::cli::UsageError("--builtin-points must be >= " + std::to_string(pcp::min_points_for(o.fit.sampling)));
         o.fit.seed = o.self_prior.seed = common.seed;
@@ -222,7 +228,9 @@ int main(int argc, char** argv) {
         s << "wrote " << output << ": " << mesh.vertices.rows() << " vertices, " << mesh.faces.rows() << " faces, "
           << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "")
           << ", sign repair flipped " << report.sign_repair.flipped_components << " of " << report.sign_repair.components
-          << " regions away from the data\n"
+          << " regions away from the data"
+          << (o.sign_repair.parity_votes > 0 ? " and " + std::to_string(report.sign_repair.parity_flipped) + " coarse samples by parity" : std::string())
+          << "\n"
           << "| read " << fmt(t_read) << " s | denoise " << fmt(report.seconds_denoise) << " s (" << report.denoise_passes
           << " passes) | prior " << fmt(report.seconds_prior) << " s (loss " << fmt(report.prior_loss)
           << ") | query net " << fmt(report.seconds_fit) << " s (" << report.fit_steps << " steps, loss " << fmt(report.fit_loss)

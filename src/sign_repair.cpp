@@ -44,6 +44,8 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const Eigen::Re
               "sign repair: near_cells and near_spacings must be finite and >= 0");
     PCP_CHECK(options.max_unsupported >= 0 && options.max_unsupported < 1,
               "sign repair: max_unsupported must be in [0, 1) (got " << options.max_unsupported << ")");
+    PCP_CHECK(options.parity_votes >= 0 && options.parity_votes <= 6,
+              "sign repair: parity_votes must be in [0, 6] (got " << options.parity_votes << ")");
     PCP_CHECK(points.rows() >= 2, "sign repair: needs at least 2 points (got " << points.rows() << ")");
     iso_ = static_cast<float>(iso);
     spec_.resolution = options.resolution;
@@ -181,12 +183,57 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const Eigen::Re
         queue.push({groups[root].volume, root});
     }
 
+    // The sign of every sample away from the data after the component flips.
+    std::vector<std::int8_t> current(static_cast<std::size_t>(count), 0);
+    for (std::int64_t n = 0; n < count; ++n) {
+        const int c = comp[n];
+        if (c >= 0) current[n] = static_cast<std::int8_t>(groups[dsu.find(c)].sign != original_sign[c] ? -sign[n] : sign[n]);
+    }
+
+    // 3d. Parity vote: per axis line, the near-data bands (runs of near samples) before and after
+    // each sample; an odd count towards the box votes inside.
+    if (options.parity_votes > 0) {
+        std::vector<std::int8_t> inside_votes(static_cast<std::size_t>(count), 0);
+        std::vector<int> before(static_cast<std::size_t>(n1));
+        for (int axis = 0; axis < 3; ++axis) {
+            for (int v = 0; v < n1; ++v)
+                for (int u = 0; u < n1; ++u) {
+                    auto at = [&](int t) {
+                        int ijk[3];
+                        ijk[axis] = t;
+                        ijk[(axis + 1) % 3] = u;
+                        ijk[(axis + 2) % 3] = v;
+                        return index(ijk[0], ijk[1], ijk[2]);
+                    };
+                    int runs = 0;
+                    for (int t = 0; t < n1; ++t) {
+                        const std::int64_t n = at(t);
+                        if (near[n] && (t == 0 || !near[at(t - 1)])) ++runs;
+                        before[t] = runs;  // bands that start at or before t
+                    }
+                    for (int t = 0; t < n1; ++t) {
+                        const std::int64_t n = at(t);
+                        if (near[n]) continue;
+                        const int low = before[t], high = runs - before[t];  // t is away: no band spans it
+                        inside_votes[n] = static_cast<std::int8_t>(inside_votes[n] + (low % 2) + (high % 2));
+                    }
+                }
+        }
+        for (std::int64_t n = 0; n < count; ++n) {
+            if (near[n]) continue;
+            const int inside = inside_votes[n], outside = 6 - inside;
+            if (current[n] > 0 && inside >= options.parity_votes) current[n] = -1;
+            else if (current[n] < 0 && outside >= options.parity_votes) current[n] = 1;
+            else continue;
+            ++stats_.parity_flipped;
+        }
+    }
+
     // 4. Per coarse sample: near the data (0), kept (its sign), or flipped (twice its original sign).
     state_.assign(static_cast<std::size_t>(count), 0);
     for (std::int64_t n = 0; n < count; ++n) {
-        const int c = comp[n];
-        if (c < 0) continue;
-        const bool flip = groups[dsu.find(c)].sign != original_sign[c];
+        if (near[n]) continue;
+        const bool flip = current[n] != sign[n];
         state_[n] = static_cast<std::int8_t>(flip ? 2 * sign[n] : sign[n]);
         stats_.flipped_samples += flip;
     }

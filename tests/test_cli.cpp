@@ -179,6 +179,9 @@ TEST_CASE("cli: usage errors exit 2, --help exits 0 and lists defaults", "[cli]"
     CHECK(run(bin("pcp_eval") + " only_one.ply").exit_code == 2);
     CHECK(run(bin("pcp_eval") + " a.ply b.ply --protocol famous").exit_code == 2);
     CHECK(run(bin("pcp_train") + " --grid 0 x.ply").exit_code == 2);
+    const RunResult parity = run(bin("pcp_reconstruct") + " --sign-repair-parity 7 x.ply");
+    CHECK(parity.exit_code == 2);
+    CHECK(parity.err.find("--sign-repair-parity must be in [0, 6]") != std::string::npos);
 }
 
 TEST_CASE("cli: --ablation takes the paper's ablation names; others exit 2 with the list", "[cli]") {

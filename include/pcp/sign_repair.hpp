@@ -38,6 +38,12 @@ struct SignRepairOptions {
     double near_cells = 1.5;       ///< tau = max(near_cells * largest coarse spacing,
     double near_spacings = 2.0;    ///<           near_spacings * median distance between neighbouring points)
     double max_unsupported = 0.5;  ///< flip a component when more than this fraction of its boundary is away from data
+    /// After the component flips, a parity vote per coarse sample away from the data: along each
+    /// of the 6 axis rays to the grid's box, an odd number of crossed near-data bands votes
+    /// "inside". With `parity_votes` = v in 1..6, a sample whose sign disagrees with at least v
+    /// of its 6 votes is flipped (this also reaches regions connected to the box, such as a
+    /// second sheet inside a thick part with a gap in the data beside it). 0 = off.
+    int parity_votes = 0;
 };
 
 struct SignRepairStats {
@@ -45,6 +51,7 @@ struct SignRepairStats {
     int components = 0;                 ///< connected regions of one sign away from the data
     int flipped_components = 0;         ///< of which flipped
     std::int64_t flipped_samples = 0;   ///< coarse samples whose sign was flipped
+    std::int64_t parity_flipped = 0;    ///< of which by the parity vote (SignRepairOptions::parity_votes)
     double tau = 0;                     ///< the "near the data" distance used (unit-box units)
 };
 
