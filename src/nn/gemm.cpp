@@ -258,6 +258,14 @@ inline void blas_call(const GemmArgs<double>& g) {
 // the call and restored after it; openblas_set_num_threads(1), once, covers the pthread build.
 template <class S>
 void blas_sequential(const GemmArgs<S>& g) {
+    // OpenBLAS 0.3.21 on AVX-512 CPUs (its SkylakeX kernels, measured on Zen 4) mallocs on every
+    // call of the plain (No, No) product for many m that are not multiples of 16 (1-8, 17, 65,
+    // 129, 257, ...; k >= 32), never for the transposed forms; the Eigen kernel, which allocates
+    // nothing after its first call, takes those (in the method: the 1-row output layers).
+    if (g.ta == Trans::No && g.tb == Trans::No && g.m % 16 != 0) {
+        eigen_sequential(g);
+        return;
+    }
     if (omp_in_parallel()) {
         blas_call(g);
         return;
