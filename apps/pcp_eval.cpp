@@ -215,7 +215,7 @@ int main(int argc, char** argv) {
             if (sdf) {
                 line("sign_agreement", sdf->result.fraction(), false, 0);
                 for (const auto& bin : sdf->result.bins)
-                    line("sign_agreement|sdf|>=" + join_thresholds({bin.lower}), bin.samples ? static_cast<double>(bin.agree) / bin.samples : 0.0,
+                    line("sign_agreement|sdf|>=" + join_thresholds({bin.lower}), bin.fraction(),
                          false, 0);
             }
             std::cout << std::flush;
@@ -246,7 +246,7 @@ int main(int argc, char** argv) {
                       << sdf->result.samples << " = " << sdf->result.fraction() << "\n| abs(sdf) from | to | samples | agreement |\n|---|---|---|---|\n";
             for (const auto& bin : sdf->result.bins)
                 std::cout << "| " << bin.lower << " | " << bin.upper << " | " << bin.samples << " | "
-                          << (bin.samples ? static_cast<double>(bin.agree) / bin.samples : 0.0) << " |\n";
+                          << bin.fraction() << " |\n";
         }
         return 0;
     });

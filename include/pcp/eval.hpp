@@ -85,6 +85,7 @@ struct SignAgreement {
     struct Bin {
         double lower = 0, upper = 0;  ///< |sdf| in [lower, upper)
         Eigen::Index samples = 0, agree = 0;
+        double fraction() const { return samples ? static_cast<double>(agree) / static_cast<double>(samples) : 0.0; }
     };
     Eigen::Index samples = 0, agree = 0;
     std::vector<Bin> bins;
