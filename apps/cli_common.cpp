@@ -5,6 +5,7 @@
 #include "pcp/files.hpp"
 #include "pcp/io.hpp"
 #include "pcp/normalize.hpp"
+#include "pcp/nn/gemm.hpp"
 
 #include <Eigen/Core>
 
@@ -66,6 +67,28 @@ bool parse_command_line(cxxopts::Options& options, int argc, char** argv,
         Eigen::setNbThreads(common.threads);
     }
     return true;
+}
+
+void add_precision_option(cxxopts::Options& options, const std::string& group) {
+    options.add_options(group)
+        ("precision", "auto | fp32 | bf16: arithmetic of the networks' large matrix products; bf16 (fp32 "
+                      "accumulation and weights) needs oneDNN and a CPU with AVX512-BF16 or AMX; auto = bf16 "
+                      "where available, else fp32",
+         cxxopts::value<std::string>()->default_value("auto"));
+}
+
+std::string apply_precision(const cxxopts::ParseResult& args) {
+    const std::string want = args["precision"].as<std::string>();
+    nn::Precision p = nn::Precision::Fp32;
+    try {
+        p = nn::parse_precision(want);
+    } catch (const pcp::Error& e) {
+        throw UsageError(std::string("--precision: ") + e.what());
+    }
+    nn::set_gemm_precision(p);
+    if (p == nn::Precision::Bf16) return "bf16 (oneDNN)";
+    if (want == "auto") return "fp32 (bf16 unavailable: " + nn::bf16_unavailable_reason() + ")";
+    return "fp32";
 }
 
 int run_main(const char* program, const std::function<int()>& body) {

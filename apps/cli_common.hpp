@@ -47,6 +47,14 @@ void add_common_options(cxxopts::Options& options);
 bool parse_command_line(cxxopts::Options& options, int argc, char** argv,
                         cxxopts::ParseResult& result, CommonFlags& common);
 
+/// Adds --precision auto|fp32|bf16 (the arithmetic of the networks' large products) to `group`.
+void add_precision_option(cxxopts::Options& options, const std::string& group);
+
+/// Applies --precision to nn::set_gemm_precision; throws UsageError for an unknown value or for
+/// bf16 where it is not available. Returns what was chosen, for the parameter table and the
+/// summary: "bf16 (oneDNN)" or "fp32", with the reason when auto fell back to fp32.
+std::string apply_precision(const cxxopts::ParseResult& args);
+
 /// Runs `body`, mapping exceptions to one line on stderr ("prog: error: ...") and an exit code.
 int run_main(const char* program, const std::function<int()>& body);
 

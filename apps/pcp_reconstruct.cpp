@@ -77,6 +77,7 @@ int main(int argc, char** argv) {
              cxxopts::value<std::string>()->default_value(pcp::to_string(d.fit.ablation)))
             ("checkpoint-every", "Steps between checkpoints", cxxopts::value<long>()->default_value(std::to_string(d.fit.checkpoint_every)))
             ("progress-every", "Steps between progress lines", cxxopts::value<long>()->default_value(std::to_string(d.fit.progress_every)));
+        pcp::cli::add_precision_option(options, "Query network (stage 2)");
         options.add_options("Meshing")
             ("resolution", "Marching-cubes cells along the longest axis", cxxopts::value<int>()->default_value(std::to_string(d.resolution)))
             ("iso", "Iso level", cxxopts::value<double>()->default_value(fmt(d.iso)))
@@ -94,6 +95,7 @@ int main(int argc, char** argv) {
         cxxopts::ParseResult args;
         pcp::cli::CommonFlags common;
         if (!pcp::cli::parse_command_line(options, argc, argv, args, common)) return 0;
+        const std::string precision = pcp::cli::apply_precision(args);
         const pcp::cli::Log log{&common};
 
         pcp::ReconstructOptions o;
@@ -212,6 +214,7 @@ int main(int argc, char** argv) {
                                               {"ablation", pcp::to_string(o.fit.ablation)},
                                               {"resolution", std::to_string(o.resolution)},
                                               {"sign repair", o.sign_repair.enabled ? "on (coarse grid " + std::to_string(std::min(o.sign_repair.resolution, o.resolution)) + ")" : "off"},
+                                              {"precision", precision},
                                               {"seed", std::to_string(common.seed)}});
         o.progress = pcp::cli::make_progress_printer(log, o.fit.progress_every);
         o.fit.checkpoint_path = output + ".ckpt";
@@ -235,7 +238,7 @@ int main(int argc, char** argv) {
           << " passes) | prior " << fmt(report.seconds_prior) << " s (loss " << fmt(report.prior_loss)
           << ") | query net " << fmt(report.seconds_fit) << " s (" << report.fit_steps << " steps, loss " << fmt(report.fit_loss)
           << ") | SDF grid " << fmt(report.seconds_grid) << " s (" << report.sdf_evaluations << " evaluations) | marching cubes "
-          << fmt(report.seconds_mesh) << " s | total " << fmt(pcp::cli::seconds_since(t_start)) << " s | peak memory "
+          << fmt(report.seconds_mesh) << " s | total " << fmt(pcp::cli::seconds_since(t_start)) << " s | precision " << precision << " | peak memory "
           << fmt(pcp::cli::peak_rss_mib()) << " MiB";
         log.info(s.str());
         return 0;

@@ -56,11 +56,13 @@ int main(int argc, char** argv) {
             ("schedule", "constant | cosine", cxxopts::value<std::string>()->default_value(d.schedule == pcp::LrScheduleKind::Cosine ? "cosine" : "constant"))
             ("warmup", "Warm-up steps", cxxopts::value<long>()->default_value(std::to_string(d.warmup_steps)))
             ("clip", "Gradient-norm clipping (0 = off)", cxxopts::value<double>()->default_value(fmt(d.clip_norm)));
+        pcp::cli::add_precision_option(options, "Networks and optimisation");
         options.parse_positional({"inputs"});
         pcp::cli::add_common_options(options);
         cxxopts::ParseResult args;
         pcp::cli::CommonFlags common;
         if (!pcp::cli::parse_command_line(options, argc, argv, args, common)) return 0;
+        const std::string precision = pcp::cli::apply_precision(args);
         const pcp::cli::Log log{&common};
 
         pcp::PriorTrainOptions o;
@@ -138,6 +140,7 @@ int main(int argc, char** argv) {
                                               {"regions", std::to_string(trainer.num_regions())},
                                               {"steps", std::to_string(trainer.total_steps())},
                                               {"settings", trainer.prior().provenance.settings},
+                                              {"precision", precision},
                                               {"output", dry_run ? "(dry run)" : output}});
         if (dry_run) return 0;
         if (args.count("resume")) {
@@ -153,7 +156,7 @@ int main(int argc, char** argv) {
         std::error_code ec;
         std::filesystem::remove(o.checkpoint_path, ec);
         log.info("wrote " + output + " | read " + fmt(t_read) + " s | regions + queries " + fmt(t_setup) + " s | training " +
-                 fmt(train_s) + " s | final loss " + fmt(trainer.recent_loss()) + " | peak memory " +
+                 fmt(train_s) + " s (" + precision + ") | final loss " + fmt(trainer.recent_loss()) + " | peak memory " +
                  fmt(pcp::cli::peak_rss_mib()) + " MiB");
         return 0;
     });

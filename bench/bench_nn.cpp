@@ -21,8 +21,12 @@
 //     F forward    3H + C H + 2H^2 + (L - 1) H^2 + H
 //     F input grad (L - 1) H^2 + 2H^2 + 3H + C H
 //     Q backward   2 (3 + C) H + 2 (L - 1) H^2 + 2 H^2 + 3H
-// Usage: bench_nn [--quick] [--gemm eigen|blas]
-//   --quick: batch 400 and 2000 only; --gemm: only that back end (default: every one built)
+// Configurations ("gemm" column): every fp32 back end of the build, and "bf16" (Precision::Bf16:
+// the large products in oneDNN bf16, the rest on the default back end) where bf16_available();
+// bf16's "SGEMM" reference is nn::gemm's bf16 rate on the same 512 x 512 x N product (including
+// the rounding of both operands to bf16).
+// Usage: bench_nn [--quick] [--gemm eigen|blas|bf16]
+//   --quick: batch 400 and 2000 only; --gemm: only that configuration (default: every one built)
 #include "../tests/alloc_counter.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/nn/steps.hpp"
@@ -100,22 +104,42 @@ Mat<float> randn(int r, int c, Rng& rng, double sd) {
 
 }  // namespace
 
+namespace {
+
+/// One column of the tables: an fp32 back end, or bf16 (on the default back end for the rest).
+struct Config {
+    GemmBackend backend;
+    Precision precision;
+    const char* name() const { return precision == Precision::Bf16 ? "bf16" : gemm_backend_name(backend); }
+    void apply() const {
+        set_gemm_backend(backend);
+        set_gemm_precision(precision);
+    }
+};
+
+}  // namespace
+
 int main(int argc, char** argv) {
     bool quick = false;
-    std::vector<GemmBackend> backends{GemmBackend::Eigen};
-    if (gemm_backend_available(GemmBackend::Blas)) backends.push_back(GemmBackend::Blas);
+    std::vector<Config> backends{{GemmBackend::Eigen, Precision::Fp32}};
+    const GemmBackend fastest = gemm_backend_available(GemmBackend::Blas) ? GemmBackend::Blas : GemmBackend::Eigen;
+    if (fastest == GemmBackend::Blas) backends.push_back({GemmBackend::Blas, Precision::Fp32});
+    if (bf16_available()) backends.push_back({fastest, Precision::Bf16});
     for (int i = 1; i < argc; ++i) {
         if (std::strcmp(argv[i], "--quick") == 0) {
             quick = true;
         } else if (std::strcmp(argv[i], "--gemm") == 0 && i + 1 < argc) {
-            const GemmBackend b = parse_gemm_backend(argv[++i]);
-            if (!gemm_backend_available(b)) {
-                std::fprintf(stderr, "bench_nn: back end %s is not in this build\n", argv[i]);
+            const std::string want = argv[++i];
+            std::vector<Config> chosen;
+            for (const Config& c : backends)
+                if (want == c.name()) chosen.push_back(c);
+            if (chosen.empty()) {
+                std::fprintf(stderr, "bench_nn: %s is not in this build (or bf16 not on this CPU)\n", argv[i]);
                 return 2;
             }
-            backends = {b};
+            backends = chosen;
         } else {
-            std::fprintf(stderr, "usage: bench_nn [--quick] [--gemm eigen|blas]\n");
+            std::fprintf(stderr, "usage: bench_nn [--quick] [--gemm eigen|blas|bf16]\n");
             return 2;
         }
     }
@@ -129,11 +153,11 @@ int main(int argc, char** argv) {
     std::printf("## SGEMM (512 x 512 times 512 x N, float, GFLOP/s; Eigen %d.%d.%d)\n\n",
                 EIGEN_WORLD_VERSION, EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION);
     std::printf("| threads | N |");
-    for (GemmBackend b : backends) std::printf(" nn::gemm %s |", gemm_backend_name(b));
+    for (const Config& b : backends) std::printf(" nn::gemm %s |", b.name());
     std::printf(" Eigen `A * B` |\n| --- | --- |");
     for (int i = 0; i <= nb; ++i) std::printf(" --- |");
     std::printf("\n");
-    double sgemm[2][3][8] = {};
+    double sgemm[3][3][8] = {};  // [configuration][threads][batch]
     Rng rng(1, 0);
     for (int t : threads) {
         Eigen::setNbThreads(t);
@@ -145,7 +169,7 @@ int main(int argc, char** argv) {
             double eigen_expr = 0;
             for (int round = 0; round < 3; ++round) {
                 for (int k = 0; k < nb; ++k) {
-                    set_gemm_backend(backends[k]);
+                    backends[k].apply();
                     const Timing tm = time_calls([&] { gemm<float>(C, A, B, 1.0f, 0.0f); }, 0.4, 7);
                     sgemm[k][t][b] = std::max(sgemm[k][t][b], gemm_flops(kH, N, kH) / tm.seconds * 1e-9);
                 }
@@ -185,7 +209,7 @@ int main(int argc, char** argv) {
                     const auto qb = q.leftCols(N);
                     const auto tb = pts.leftCols(N);
                     for (int k = 0; k < nb; ++k) {
-                        set_gemm_backend(backends[k]);
+                        backends[k].apply();
                         const Timing tm =
                             stage == 1 ? time_calls([&] { s1.step(qb, tb, tb); }, 1.5, 3)
                                        : time_calls([&] { s2.step(qb, tb, no_codes); }, 1.5, 3);
@@ -193,7 +217,7 @@ int main(int argc, char** argv) {
                         const double fl = stage == 1 ? stage1_flops(N, kH, kL, C) : stage2_flops(N, kH, kL, C);
                         const double gfs = fl / s * 1e-9;
                         std::printf("| %d | %d | %d | %d | %s | %.1f | %.2f | %.0f | %.1f | %.1f | %.0f%% | %.1f |\n",
-                                    stage, C, t, N, gemm_backend_name(backends[k]), s * 1e3, 1.0 / s,
+                                    stage, C, t, N, backends[k].name(), s * 1e3, 1.0 / s,
                                     N / s, fl * 1e-9, gfs, 100.0 * gfs / sgemm[k][t][b], tm.allocations);
                         std::fflush(stdout);
                     }

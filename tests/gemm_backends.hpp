@@ -1,5 +1,6 @@
 // The GEMM back ends this build has, and a guard that restores the process-wide GEMM settings a
-// test changes: shared by the gemm and step tests, which run every back end.
+// test changes (threads, back end, precision): shared by the gemm and step tests, which run every
+// back end.
 #pragma once
 
 #include "pcp/nn/gemm.hpp"
@@ -19,9 +20,11 @@ inline std::vector<nn::GemmBackend> gemm_backends() {
 struct RestoreGemmSettings {
     int threads = Eigen::nbThreads();
     nn::GemmBackend backend = nn::gemm_backend();
+    nn::Precision precision = nn::gemm_precision();
     ~RestoreGemmSettings() {
         Eigen::setNbThreads(threads);
         nn::set_gemm_backend(backend);
+        nn::set_gemm_precision(precision);
     }
 };
 

@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 
 #include <atomic>
+#include <utility>
 #include <cmath>
 #include <cstdlib>
 #include <vector>
@@ -126,7 +127,11 @@ TEST_CASE("nn: stage 1 overfits a sphere", "[nn]") {
     CHECK(run.last < 0.3 * run.first);
 }
 
-TEST_CASE("nn: stage 2 fits a torus through a frozen sphere-trained F", "[nn]") {
+namespace {
+
+// 600 stage-2 steps on a torus through the frozen sphere prior; returns the mean loss of the
+// first and of the last 20 steps.
+std::pair<double, double> fit_torus() {
     const Stage1Run& prior = sphere_prior();
     Rng rng(32, 0);
     BranchMlp<float> Q(query_net_shape(kC, kH, kL));
@@ -151,19 +156,51 @@ TEST_CASE("nn: stage 2 fits a torus through a frozen sphere-trained F", "[nn]") 
         if (s < 20) first += L / 20;
         if (s >= steps - 20) last += L / 20;
     }
+    // The decoder was not touched.
+    CHECK(trainer.decoder.params == prior.trainer.decoder.params);
+    return {first, last};
+}
+
+}  // namespace
+
+TEST_CASE("nn: stage 2 fits a torus through a frozen sphere-trained F", "[nn]") {
+    const auto [first, last] = fit_torus();
     // Measured (600 steps, same sizes, torus R = 0.25, r = 0.1): first 20 steps 0.169, last 20
     // steps 0.0287.
     INFO("stage 2 loss: first 20 steps " << first << ", last 20 steps " << last);
     CHECK(last < 0.04);
     CHECK(last < 0.3 * first);
-    // The decoder was not touched.
-    CHECK(trainer.decoder.params == prior.trainer.decoder.params);
+}
+
+TEST_CASE("nn: in bf16, stage 2 fits the torus as well as in fp32", "[nn]") {
+    if (!bf16_available()) {
+        WARN("skipped: " << bf16_unavailable_reason());
+        return;
+    }
+    pcp::test::RestoreGemmSettings restore;
+    set_gemm_precision(Precision::Fp32);
+    const auto [first32, last32] = fit_torus();
+    set_gemm_precision(Precision::Bf16);
+    const long created = bf16_primitives_created();
+    const auto [first16, last16] = fit_torus();
+    INFO("stage 2 loss fp32: " << first32 << " -> " << last32 << ", bf16: " << first16 << " -> " << last16);
+    CHECK(bf16_primitives_created() > created);  // the bf16 products did run
+    CHECK(last16 < 0.04);
+    CHECK(std::abs(last16 - last32) < 0.1 * last32);
 }
 
 namespace {
 
 using pcp::test::RestoreGemmSettings;
 const auto backends = pcp::test::gemm_backends;
+
+// fp32, and bf16 where this build and CPU have it (the oneDNN products' primitives and bf16
+// copies are created once per thread and shape, then reused).
+std::vector<Precision> precisions() {
+    std::vector<Precision> p{Precision::Fp32};
+    if (bf16_available()) p.push_back(Precision::Bf16);
+    return p;
+}
 
 }  // namespace
 
@@ -187,13 +224,17 @@ TEST_CASE("nn: no heap allocation inside a training step after the first", "[nn]
     Stage1Trainer<float> s1(E, F, N, N, o);
     Stage2Trainer<float> s2(Q, F, N, o);
     GlobalSdfCache<float> eval(Q.shape, F.shape, N);
+    for (const Precision precision : precisions())
     for (GemmBackend backend : backends())
         for (int threads : {1, 2}) {
+            set_gemm_precision(precision);
             set_gemm_backend(backend);
             Eigen::setNbThreads(threads);
             s1.step(q, t, pts);  // first steps may allocate (the GEMM's per-thread buffers)
             s2.step(q, t, codes);
             global_sdf_eval<float>(s2.query_net, s2.decoder, q, codes, eval);
+            if (precision == Precision::Bf16) s1.step(q.leftCols(N / 2), t.leftCols(N / 2), pts.leftCols(N / 3));
+            const long created = bf16_primitives_created();
             long n1, n2, n3, n_smaller;
             {
                 CountAllocations count;
@@ -215,11 +256,16 @@ TEST_CASE("nn: no heap allocation inside a training step after the first", "[nn]
                 s1.step(q.leftCols(N / 2), t.leftCols(N / 2), pts.leftCols(N / 3));
                 n_smaller = count.count();
             }
-            INFO("gemm back end " << gemm_backend_name(backend) << ", " << threads << " thread(s)");
-            CHECK(n1 == 0);
-            CHECK(n2 == 0);
-            CHECK(n3 == 0);
-            CHECK(n_smaller == 0);
+            INFO("gemm back end " << gemm_backend_name(backend) << ", " << threads << " thread(s), "
+                                  << precision_name(precision));
+            if (precision == Precision::Fp32) {
+                CHECK(n1 == 0);
+                CHECK(n2 == 0);
+                CHECK(n3 == 0);
+                CHECK(n_smaller == 0);
+            } else {  // oneDNN's execute allocates its context; nothing is created after warm-up
+                CHECK(bf16_primitives_created() == created);
+            }
         }
     // The counter itself works: a fresh matrix is seen.
     long probe;
@@ -254,12 +300,15 @@ TEST_CASE("nn: no heap allocation inside a training step at the paper's sizes", 
     Stage1Trainer<float> s1(E, F, N, N);
     Stage2Trainer<float> s2(Q, F, N);
     const MatrixXf no_codes;
+    for (const Precision precision : precisions())
     for (GemmBackend backend : backends())
         for (int threads : {1, 2}) {
+            set_gemm_precision(precision);
             set_gemm_backend(backend);
             Eigen::setNbThreads(threads);
             s1.step(q, t, pts);  // warm-up: this thread count's GEMM buffers
             s2.step(q, t, no_codes);
+            const long created = bf16_primitives_created();
             long n1, n2;
             {
                 CountAllocations count;
@@ -271,9 +320,14 @@ TEST_CASE("nn: no heap allocation inside a training step at the paper's sizes", 
                 s2.step(q, t, no_codes);
                 n2 = count.count();
             }
-            INFO("gemm back end " << gemm_backend_name(backend) << ", " << threads << " thread(s)");
-            CHECK(n1 == 0);
-            CHECK(n2 == 0);
+            INFO("gemm back end " << gemm_backend_name(backend) << ", " << threads << " thread(s), "
+                                  << precision_name(precision));
+            if (precision == Precision::Fp32) {
+                CHECK(n1 == 0);
+                CHECK(n2 == 0);
+            } else {  // oneDNN's execute allocates its context; nothing is created after warm-up
+                CHECK(bf16_primitives_created() == created);
+            }
         }
 }
 #endif

@@ -13,9 +13,19 @@
 // PCP_GEMM=eigen|blas read at the first call; by default Blas when built, else Eigen. Neither
 // allocates on the heap after its first call at the largest shape (per thread).
 // Inside an OpenMP parallel region either back end runs single-threaded in the calling thread.
+//
+// Precision (issue 7) is a second, independent process-wide setting. Fp32 (the default): every
+// product as above. Bf16 (built when CMake finds oneDNN, option PCP_DNNL=AUTO|ON|OFF; usable where
+// the CPU has AVX512-BF16 or AMX): the large float products (m, n and k all >= kBf16MinDim) round
+// both operands to bf16 and run oneDNN's bf16 matmul with fp32 accumulation and fp32 output, C and
+// the weights the caller owns stay fp32 (fp32 master weights and Adam state). The small products
+// (the depth-3 input layer, the 1-row output layer) and every double product keep the fp32/fp64
+// path, so the finite-difference gradient checks in double are unaffected.
 #pragma once
 
 #include "pcp/nn/common.hpp"
+
+#include <string>
 
 namespace pcp::nn {
 
@@ -61,5 +71,40 @@ const char* gemm_backend_name(GemmBackend backend);
 
 /// Parses "eigen" or "blas" (as for PCP_GEMM or a --gemm option); throws pcp::Error otherwise.
 GemmBackend parse_gemm_backend(const char* name);
+
+/// Arithmetic of the large float products (see the top of this file).
+enum class Precision { Fp32, Bf16 };
+
+/// Under Precision::Bf16 a float product runs in bf16 only when m, n and k are all at least this.
+constexpr Eigen::Index kBf16MinDim = 32;
+
+/// Whether Precision::Bf16 can be selected: this build has the oneDNN back end and the CPU has
+/// native bf16 units (AVX512-BF16 or AMX, as oneDNN detects them).
+bool bf16_available();
+
+/// Why bf16_available() is false ("" when it is true), for messages.
+std::string bf16_unavailable_reason();
+
+/// Selects the precision of every later float gemm call in the process. Throws pcp::Error for
+/// Bf16 when !bf16_available(). Not to be called while another thread runs gemm.
+void set_gemm_precision(Precision precision);
+
+/// The precision gemm uses now: Fp32 unless set_gemm_precision or the environment variable
+/// PCP_PRECISION=auto|fp32|bf16 (read at the first call) chose otherwise.
+Precision gemm_precision();
+
+/// How many oneDNN matmul primitives the bf16 path has created in this process (all threads).
+/// Each thread creates one per product shape on its first use and then reuses it; a step with
+/// fixed shapes creates none after its first call (the tests check this). Note that oneDNN's
+/// execute itself allocates a few small blocks per product (its execution context, about 8
+/// measured with oneDNN 2.6), so the bf16 path is not allocation-free like the fp32 path.
+long bf16_primitives_created();
+
+/// "fp32" or "bf16".
+const char* precision_name(Precision precision);
+
+/// Parses "fp32", "bf16" or "auto" (bf16 where bf16_available(), else fp32), as for --precision or
+/// PCP_PRECISION. Throws pcp::Error for any other name and for "bf16" when !bf16_available().
+Precision parse_precision(const std::string& name);
 
 }  // namespace pcp::nn
