@@ -1,6 +1,7 @@
 // Bad input through the command-line tools: every case gets a one-line error naming the file and
 // the problem, a non-zero exit code, and leaves no output file behind.
 #include "pcp/io.hpp"
+#include "pcp/nn/gemm.hpp"
 #include "pcp/shapes.hpp"
 #include "test_meshes.hpp"
 
@@ -11,6 +12,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <vector>
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -295,4 +297,31 @@ TEST_CASE("cli: pcp_eval --sdf-samples reports the sign agreement; bad sample fi
     const RunResult bad_convention = run(eval + (dir / "sdf.ply").string() + "' --sdf-convention inside");
     CHECK(bad_convention.exit_code == 2);
     CHECK(bad_convention.err.find("--sdf-convention") != std::string::npos);
+}
+
+TEST_CASE("cli: --precision: bad values exit 2 naming the flag; the run's summary names the precision", "[cli]") {
+    for (const char* program : {"pcp_reconstruct", "pcp_train"}) {
+        const RunResult bad = run(bin(program) + " --precision fp16 x.ply");
+        INFO(program << " stderr: " << bad.err);
+        CHECK(bad.exit_code == 2);
+        CHECK(bad.err.find("--precision: unknown precision 'fp16': expected auto, fp32 or bf16") != std::string::npos);
+    }
+    const fs::path dir = case_dir("precision");
+    std::vector<std::string> wanted{"fp32"};
+    if (pcp::nn::bf16_available()) {
+        wanted.push_back("bf16");
+    } else {  // asked for explicitly where it cannot run: a usage error that says why
+        const RunResult r = run(bin("pcp_reconstruct") + " --precision bf16 -o '" + (dir / "bf16.ply").string() + "'");
+        CHECK(r.exit_code == 2);
+        CHECK(r.err.find("bf16 is not available") != std::string::npos);
+    }
+    for (const std::string& p : wanted) {
+        const fs::path out = dir / (p + ".ply");
+        const RunResult r = run(bin("pcp_reconstruct") + " --preset fast --builtin-points 3000 --prior-steps 20 --steps 20 "
+                                                         "--resolution 24 --precision " + p + " -o '" + out.string() + "'");
+        INFO("stderr: " << r.err);
+        CHECK(r.exit_code == 0);
+        CHECK(r.err.find("| precision " + p) != std::string::npos);
+        CHECK(fs::exists(out));
+    }
 }
