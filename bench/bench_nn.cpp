@@ -25,8 +25,11 @@
 // the large products in oneDNN bf16, the rest on the default back end) where bf16_available();
 // bf16's "SGEMM" reference is nn::gemm's bf16 rate on the same 512 x 512 x N product (including
 // the rounding of both operands to bf16).
-// Usage: bench_nn [--quick] [--gemm eigen|blas|bf16]
-//   --quick: batch 400 and 2000 only; --gemm: only that configuration (default: every one built)
+// Last, where bf16 is available: one stage-1 and one stage-2 step from the same state in fp32 and
+// in bf16, and how far apart their gradients are (relative L2 difference, cosine).
+// Usage: bench_nn [--quick] [--gemm eigen|blas|bf16] [--gradients]
+//   --quick: batch 400 and 2000 only; --gemm: only that configuration (default: every one built);
+//   --gradients: only the bf16-against-fp32 gradient table
 #include "../tests/alloc_counter.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/nn/steps.hpp"
@@ -120,7 +123,7 @@ struct Config {
 }  // namespace
 
 int main(int argc, char** argv) {
-    bool quick = false;
+    bool quick = false, gradients_only = false;
     std::vector<Config> backends{{GemmBackend::Eigen, Precision::Fp32}};
     const GemmBackend fastest = gemm_backend_available(GemmBackend::Blas) ? GemmBackend::Blas : GemmBackend::Eigen;
     if (fastest == GemmBackend::Blas) backends.push_back({GemmBackend::Blas, Precision::Fp32});
@@ -128,6 +131,8 @@ int main(int argc, char** argv) {
     for (int i = 1; i < argc; ++i) {
         if (std::strcmp(argv[i], "--quick") == 0) {
             quick = true;
+        } else if (std::strcmp(argv[i], "--gradients") == 0) {
+            gradients_only = true;
         } else if (std::strcmp(argv[i], "--gemm") == 0 && i + 1 < argc) {
             const std::string want = argv[++i];
             std::vector<Config> chosen;
@@ -139,7 +144,7 @@ int main(int argc, char** argv) {
             }
             backends = chosen;
         } else {
-            std::fprintf(stderr, "usage: bench_nn [--quick] [--gemm eigen|blas|bf16]\n");
+            std::fprintf(stderr, "usage: bench_nn [--quick] [--gemm eigen|blas|bf16] [--gradients]\n");
             return 2;
         }
     }
@@ -148,82 +153,126 @@ int main(int argc, char** argv) {
     const std::vector<int> conds = {256, 512};
     const int nb = int(backends.size());
 
-    // SGEMM reference: C (512 x N) = A (512 x 512) * B (512 x N), per back end; and Eigen's own
-    // product expression (what nn::gemm ran before it drove Eigen's kernel itself).
-    std::printf("## SGEMM (512 x 512 times 512 x N, float, GFLOP/s; Eigen %d.%d.%d)\n\n",
-                EIGEN_WORLD_VERSION, EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION);
-    std::printf("| threads | N |");
-    for (const Config& b : backends) std::printf(" nn::gemm %s |", b.name());
-    std::printf(" Eigen `A * B` |\n| --- | --- |");
-    for (int i = 0; i <= nb; ++i) std::printf(" --- |");
-    std::printf("\n");
-    double sgemm[3][3][8] = {};  // [configuration][threads][batch]
     Rng rng(1, 0);
-    for (int t : threads) {
-        Eigen::setNbThreads(t);
-        for (std::size_t b = 0; b < batches.size(); ++b) {
-            const int N = batches[b];
-            Mat<float> A = randn(kH, kH, rng, 0.05), B = randn(kH, N, rng, 1.0), C(kH, N);
-            // Three interleaved rounds, the best median of each: the machine is shared, and a
-            // burst of load during one round must not lower the reference of every step row.
-            double eigen_expr = 0;
-            for (int round = 0; round < 3; ++round) {
-                for (int k = 0; k < nb; ++k) {
-                    backends[k].apply();
-                    const Timing tm = time_calls([&] { gemm<float>(C, A, B, 1.0f, 0.0f); }, 0.4, 7);
-                    sgemm[k][t][b] = std::max(sgemm[k][t][b], gemm_flops(kH, N, kH) / tm.seconds * 1e-9);
+    if (!gradients_only) {
+        // SGEMM reference: C (512 x N) = A (512 x 512) * B (512 x N), per back end; and Eigen's own
+        // product expression (what nn::gemm ran before it drove Eigen's kernel itself).
+        std::printf("## SGEMM (512 x 512 times 512 x N, float, GFLOP/s; Eigen %d.%d.%d)\n\n",
+                    EIGEN_WORLD_VERSION, EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION);
+        std::printf("| threads | N |");
+        for (const Config& b : backends) std::printf(" nn::gemm %s |", b.name());
+        std::printf(" Eigen `A * B` |\n| --- | --- |");
+        for (int i = 0; i <= nb; ++i) std::printf(" --- |");
+        std::printf("\n");
+        double sgemm[3][3][8] = {};  // [configuration][threads][batch]
+        for (int t : threads) {
+            Eigen::setNbThreads(t);
+            for (std::size_t b = 0; b < batches.size(); ++b) {
+                const int N = batches[b];
+                Mat<float> A = randn(kH, kH, rng, 0.05), B = randn(kH, N, rng, 1.0), C(kH, N);
+                // Three interleaved rounds, the best median of each: the machine is shared, and a
+                // burst of load during one round must not lower the reference of every step row.
+                double eigen_expr = 0;
+                for (int round = 0; round < 3; ++round) {
+                    for (int k = 0; k < nb; ++k) {
+                        backends[k].apply();
+                        const Timing tm = time_calls([&] { gemm<float>(C, A, B, 1.0f, 0.0f); }, 0.4, 7);
+                        sgemm[k][t][b] = std::max(sgemm[k][t][b], gemm_flops(kH, N, kH) / tm.seconds * 1e-9);
+                    }
+                    const Timing te = time_calls([&] { C.noalias() = A * B; }, 0.4, 7);
+                    eigen_expr = std::max(eigen_expr, gemm_flops(kH, N, kH) / te.seconds * 1e-9);
                 }
-                const Timing te = time_calls([&] { C.noalias() = A * B; }, 0.4, 7);
-                eigen_expr = std::max(eigen_expr, gemm_flops(kH, N, kH) / te.seconds * 1e-9);
+                std::printf("| %d | %d |", t, N);
+                for (int k = 0; k < nb; ++k) std::printf(" %.1f |", sgemm[k][t][b]);
+                std::printf(" %.1f |\n", eigen_expr);
+                std::fflush(stdout);
             }
-            std::printf("| %d | %d |", t, N);
-            for (int k = 0; k < nb; ++k) std::printf(" %.1f |", sgemm[k][t][b]);
-            std::printf(" %.1f |\n", eigen_expr);
-            std::fflush(stdout);
         }
+
+        std::printf("\n## Training steps (H = %d, L = %d, float)\n\n", kH, kL);
+        std::printf("| stage | C | threads | batch N | gemm | ms/step | steps/s | queries/s | GFLOP/step | "
+                    "GFLOP/s | %% of its SGEMM | mallocs/step |\n"
+                    "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+        for (int C : conds) {
+            Rng init(2, std::uint64_t(C));
+            BranchMlp<float> F(decoder_shape(C, kH, kL));
+            init_decoder_geometric(F, init);
+            PointNet<float> E(pointnet_shape(C, kP, kHp));
+            init_pointnet(E, init);
+            BranchMlp<float> Q(query_net_shape(C, kH, kL));
+            init_query_net(Q, init, true);
+            const int nmax = batches.back();
+            Mat<float> pts = randn(3, nmax, rng, 0.3);
+            Mat<float> q = pts + randn(3, nmax, rng, 0.03);
+            Stage1Trainer<float> s1(E, F, nmax, nmax);
+            Stage2Trainer<float> s2(Q, F, nmax);
+            const Mat<float> no_codes;
+            for (int stage : {1, 2}) {
+                for (int t : threads) {
+                    Eigen::setNbThreads(t);
+                    for (std::size_t b = 0; b < batches.size(); ++b) {
+                        const int N = batches[b];
+                        const auto qb = q.leftCols(N);
+                        const auto tb = pts.leftCols(N);
+                        for (int k = 0; k < nb; ++k) {
+                            backends[k].apply();
+                            const Timing tm =
+                                stage == 1 ? time_calls([&] { s1.step(qb, tb, tb); }, 1.5, 3)
+                                           : time_calls([&] { s2.step(qb, tb, no_codes); }, 1.5, 3);
+                            const double s = tm.seconds;
+                            const double fl = stage == 1 ? stage1_flops(N, kH, kL, C) : stage2_flops(N, kH, kL, C);
+                            const double gfs = fl / s * 1e-9;
+                            std::printf("| %d | %d | %d | %d | %s | %.1f | %.2f | %.0f | %.1f | %.1f | %.0f%% | %.1f |\n",
+                                        stage, C, t, N, backends[k].name(), s * 1e3, 1.0 / s,
+                                        N / s, fl * 1e-9, gfs, 100.0 * gfs / sgemm[k][t][b], tm.allocations);
+                            std::fflush(stdout);
+                        }
+                    }
+                }
+            }
+        }
+
     }
 
-    std::printf("\n## Training steps (H = %d, L = %d, float)\n\n", kH, kL);
-    std::printf("| stage | C | threads | batch N | gemm | ms/step | steps/s | queries/s | GFLOP/step | "
-                "GFLOP/s | %% of its SGEMM | mallocs/step |\n"
-                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
-    for (int C : conds) {
-        Rng init(2, std::uint64_t(C));
+    // The same step from the same state in fp32 and in bf16: how far bf16 moves the gradient.
+    if (bf16_available()) {
+        const int C = 256, N = 2000;
+        std::printf("\n## One step's gradient, bf16 against fp32 (H = %d, L = %d, C = %d, batch %d, same state and "
+                    "inputs)\n\n| stage | loss fp32 | loss bf16 | gradient norm fp32 | relative L2 difference | cosine |\n"
+                    "| --- | --- | --- | --- | --- | --- |\n", kH, kL, C, N);
+        Rng init(3, 0);
         BranchMlp<float> F(decoder_shape(C, kH, kL));
         init_decoder_geometric(F, init);
         PointNet<float> E(pointnet_shape(C, kP, kHp));
         init_pointnet(E, init);
         BranchMlp<float> Q(query_net_shape(C, kH, kL));
         init_query_net(Q, init, true);
-        const int nmax = batches.back();
-        Mat<float> pts = randn(3, nmax, rng, 0.3);
-        Mat<float> q = pts + randn(3, nmax, rng, 0.03);
-        Stage1Trainer<float> s1(E, F, nmax, nmax);
-        Stage2Trainer<float> s2(Q, F, nmax);
+        const Mat<float> pts = randn(3, N, rng, 0.3);
+        const Mat<float> q = pts + randn(3, N, rng, 0.03);
         const Mat<float> no_codes;
+        Eigen::setNbThreads(2);
         for (int stage : {1, 2}) {
-            for (int t : threads) {
-                Eigen::setNbThreads(t);
-                for (std::size_t b = 0; b < batches.size(); ++b) {
-                    const int N = batches[b];
-                    const auto qb = q.leftCols(N);
-                    const auto tb = pts.leftCols(N);
-                    for (int k = 0; k < nb; ++k) {
-                        backends[k].apply();
-                        const Timing tm =
-                            stage == 1 ? time_calls([&] { s1.step(qb, tb, tb); }, 1.5, 3)
-                                       : time_calls([&] { s2.step(qb, tb, no_codes); }, 1.5, 3);
-                        const double s = tm.seconds;
-                        const double fl = stage == 1 ? stage1_flops(N, kH, kL, C) : stage2_flops(N, kH, kL, C);
-                        const double gfs = fl / s * 1e-9;
-                        std::printf("| %d | %d | %d | %d | %s | %.1f | %.2f | %.0f | %.1f | %.1f | %.0f%% | %.1f |\n",
-                                    stage, C, t, N, backends[k].name(), s * 1e3, 1.0 / s,
-                                    N / s, fl * 1e-9, gfs, 100.0 * gfs / sgemm[k][t][b], tm.allocations);
-                        std::fflush(stdout);
-                    }
+            double loss[2];
+            Vec<float> grad[2];
+            for (int k = 0; k < 2; ++k) {
+                set_gemm_precision(k == 0 ? Precision::Fp32 : Precision::Bf16);
+                if (stage == 1) {
+                    Stage1Trainer<float> tr(E, F, N, N);
+                    loss[k] = tr.step(q, pts, pts);
+                    grad[k].resize(tr.grad_encoder.size() + tr.grad_decoder.size());
+                    grad[k] << tr.grad_encoder, tr.grad_decoder;
+                } else {
+                    Stage2Trainer<float> tr(Q, F, N);
+                    loss[k] = tr.step(q, pts, no_codes);
+                    grad[k] = tr.grad_query;
                 }
             }
+            const double n32 = grad[0].cast<double>().norm();
+            const double diff = (grad[1] - grad[0]).cast<double>().norm() / n32;
+            const double cosine = grad[0].cast<double>().dot(grad[1].cast<double>()) / (n32 * grad[1].cast<double>().norm());
+            std::printf("| %d | %.6g | %.6g | %.4g | %.3g | %.6f |\n", stage, loss[0], loss[1], n32, diff, cosine);
         }
+        set_gemm_precision(Precision::Fp32);
     }
     return 0;
 }
