@@ -4,13 +4,18 @@
 #include "pcp/eval.hpp"
 #include "pcp/io.hpp"
 #include "pcp/reconstruct.hpp"
+#include "gemm_backends.hpp"
+#include "pcp/nn/gemm.hpp"
 #include "reduced_preset.hpp"
 
 #include <catch2/catch.hpp>
 
 #include <cmath>
 
-TEST_CASE("realdata: abc_00010039 reconstructs close to its ground truth with the right sign", "[realdata][reconstruct]") {
+namespace {
+
+// Reconstructs abc_00010039 with the reduced preset in the current gemm precision and checks it.
+void check_abc_00010039() {
     const std::string dir = std::string(PCP_DATA_DIR) + "/abc/abc_00010039/";
     const pcp::PointCloud cloud = pcp::read_point_cloud(dir + "input.ply");
     REQUIRE(cloud.points.rows() == 6936);
@@ -37,7 +42,7 @@ TEST_CASE("realdata: abc_00010039 reconstructs close to its ground truth with th
     REQUIRE(signs.bins.size() == 2);
     const double agreement = signs.fraction();
     const double far_agreement = signs.bins[1].fraction();
-    WARN("abc_00010039, reduced preset: L2-CD x 100 = " << 100 * r.metrics.chamfer_l2 << ", NC = "
+    WARN("abc_00010039, reduced preset, " << pcp::nn::precision_name(pcp::nn::gemm_precision()) << ": L2-CD x 100 = " << 100 * r.metrics.chamfer_l2 << ", NC = "
          << r.metrics.normal_consistency << ", sign agreement " << agreement << " of " << signs.samples
          << " samples, " << far_agreement << " of the " << signs.bins[1].samples << " farther than " << noise_rms
          << " from the surface, " << mesh.faces.rows() << " faces");
@@ -52,4 +57,23 @@ TEST_CASE("realdata: abc_00010039 reconstructs close to its ground truth with th
     CHECK(agreement >= 0.76);
     CHECK(far_agreement >= 0.95);
     CHECK(100 * r.metrics.chamfer_l2 < 0.07);
+}
+
+}  // namespace
+
+TEST_CASE("realdata: abc_00010039 reconstructs close to its ground truth with the right sign", "[realdata][reconstruct]") {
+    pcp::test::RestoreGemmSettings restore;
+    pcp::nn::set_gemm_precision(pcp::nn::Precision::Fp32);
+    check_abc_00010039();
+}
+
+// The apps' default (--precision auto) is bf16 where the CPU has it: the same bounds hold there.
+TEST_CASE("realdata: abc_00010039 in bf16 meets the same bounds", "[realdata][reconstruct]") {
+    if (!pcp::nn::bf16_available()) {
+        WARN("skipped: " << pcp::nn::bf16_unavailable_reason());
+        return;
+    }
+    pcp::test::RestoreGemmSettings restore;
+    pcp::nn::set_gemm_precision(pcp::nn::Precision::Bf16);
+    check_abc_00010039();
 }
