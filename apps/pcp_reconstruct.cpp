@@ -79,6 +79,10 @@ int main(int argc, char** argv) {
             ("progress-every", "Steps between progress lines", cxxopts::value<long>()->default_value(std::to_string(d.fit.progress_every)));
         pcp::cli::add_precision_option(options, "Query network (stage 2)");
         options.add_options("Meshing")
+            ("grid-precision", "fp32 | training: precision of the SDF evaluations for meshing and the sign repair; "
+                               "fp32 (default) even when training runs bf16, or the training's",
+             cxxopts::value<std::string>()->default_value(d.fp32_grid ? "fp32" : "training"));
+        options.add_options("Meshing")
             ("resolution", "Marching-cubes cells along the longest axis", cxxopts::value<int>()->default_value(std::to_string(d.resolution)))
             ("iso", "Iso level", cxxopts::value<double>()->default_value(fmt(d.iso)))
             ("margin", "Margin around the cloud's unit box", cxxopts::value<double>()->default_value(fmt(d.margin)))
@@ -162,6 +166,12 @@ int main(int argc, char** argv) {
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--sign-repair must be on or off (got '" + v + "')");
             o.sign_repair.enabled = v == "on";
         }
+        {
+            const std::string v = args["grid-precision"].as<std::string>();
+            if (v != "fp32" && v != "training")
+                throw pcp::cli::UsageError("--grid-precision must be fp32 or training (got '" + v + "')");
+            o.fp32_grid = v == "fp32";
+        }
         if (args.count("sign-repair-resolution")) o.sign_repair.resolution = args["sign-repair-resolution"].as<int>();
         if (o.sign_repair.resolution < 2 || o.sign_repair.resolution > 256)
             throw pcp::cli::UsageError("--sign-repair-resolution must be in [2, 256]");
@@ -214,7 +224,7 @@ int main(int argc, char** argv) {
                                               {"ablation", pcp::to_string(o.fit.ablation)},
                                               {"resolution", std::to_string(o.resolution)},
                                               {"sign repair", o.sign_repair.enabled ? "on (coarse grid " + std::to_string(std::min(o.sign_repair.resolution, o.resolution)) + ")" : "off"},
-                                              {"precision", precision},
+                                              {"precision", precision + (o.fp32_grid && precision.rfind("bf16", 0) == 0 ? ", SDF grid fp32" : "")},
                                               {"seed", std::to_string(common.seed)}});
         o.progress = pcp::cli::make_progress_printer(log, o.fit.progress_every);
         o.fit.checkpoint_path = output + ".ckpt";

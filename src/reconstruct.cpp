@@ -12,6 +12,7 @@
 #include "pcp/error.hpp"
 #include "pcp/kdtree.hpp"
 #include "pcp/nn/checkpoint.hpp"
+#include "pcp/nn/gemm.hpp"
 #include "pcp/marching_cubes.hpp"
 #include "pcp/nn/networks.hpp"
 #include "pcp/nn/steps.hpp"
@@ -511,6 +512,14 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     r.seconds_fit = seconds_since(t0);
 
     t0 = std::chrono::steady_clock::now();
+    // The grid's precision (ReconstructOptions::fp32_grid), restored when this scope ends.
+    struct GridPrecision {
+        nn::Precision saved = nn::gemm_precision();
+        explicit GridPrecision(bool fp32) {
+            if (fp32) nn::set_gemm_precision(nn::Precision::Fp32);
+        }
+        ~GridPrecision() { nn::set_gemm_precision(saved); }
+    } grid_precision(options.fp32_grid);
     const GridSpec spec = make_grid_spec(bounding_box(fitter.unit_points().cast<double>()), options.resolution, options.margin);
     // Outside is positive: decide on the grid box's boundary, which encloses the whole cloud.
     const PointsF boundary = box_boundary_samples(spec.box, 12);

@@ -8,6 +8,8 @@
 #include "pcp/error.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/nn/rng.hpp"
+#include "pcp/reconstruct.hpp"
+#include "pcp/shapes.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -180,4 +182,43 @@ TEST_CASE("nn: bf16 gemm keeps the caller's OpenMP thread count", "[nn]") {
         CHECK(Eigen::nbThreads() == threads);
     }
     omp_set_num_threads(saved);
+}
+
+// reconstruct() evaluates its meshing grid in fp32 under bf16 training (fp32_grid, the default)
+// and leaves the process in bf16 afterwards. The grid's evaluation batches (4096 points, in the
+// OpenMP workers) have shapes the training never uses, so bf16 evaluation creates new oneDNN
+// primitives where fp32 evaluation creates none: the counter tells which precision the grid ran.
+TEST_CASE("reconstruct: under bf16 the SDF grid runs in fp32 unless asked otherwise", "[nn]") {
+    if (!bf16_available()) {
+        WARN("skipped: " << bf16_unavailable_reason());
+        return;
+    }
+    RestoreGemmSettings restore;
+    set_gemm_precision(Precision::Bf16);
+    pcp::ReconstructOptions o = pcp::ReconstructOptions::preset("fast");
+    o.self_prior.network.width = 32;
+    o.self_prior.network.depth = 4;
+    o.self_prior.network.condition = 32;
+    o.self_prior.max_steps = 30;
+    o.self_prior.regions.grid = 2;
+    o.fit.width = 32;
+    o.fit.depth = 4;
+    o.fit.queries_per_step = 200;
+    o.fit.steps = 30;
+    o.fit.progress_every = 1 << 30;
+    o.resolution = 32;
+    const pcp::Points cloud = pcp::sample_sphere(1500, 0.4, Eigen::Vector3d::Zero(), 4).points;
+    pcp::reconstruct(cloud, nullptr, o);  // warm-up: the training's primitives
+    CHECK(gemm_precision() == Precision::Bf16);
+    const long before = bf16_primitives_created();
+    pcp::reconstruct(cloud, nullptr, o);
+    const long fp32_grid_created = bf16_primitives_created() - before;
+    CHECK(gemm_precision() == Precision::Bf16);
+    o.fp32_grid = false;
+    pcp::reconstruct(cloud, nullptr, o);
+    const long bf16_grid_created = bf16_primitives_created() - before - fp32_grid_created;
+    CHECK(gemm_precision() == Precision::Bf16);
+    INFO("primitives created: fp32 grid " << fp32_grid_created << ", bf16 grid " << bf16_grid_created);
+    CHECK(fp32_grid_created == 0);
+    CHECK(bf16_grid_created > 0);
 }

@@ -110,6 +110,11 @@ struct ReconstructOptions {
     double iso = 0.0;
     SdfGridOptions grid;             ///< narrow-band settings
     SignRepairOptions sign_repair;   ///< flip regions whose sign the data does not support (not in the paper)
+    /// Evaluate the fitted SDF for meshing and for the sign repair with fp32 products even when
+    /// the process runs bf16 (nn::set_gemm_precision; the training stays bf16). The grid is a small
+    /// part of the time; bf16 rounding in the evaluation roughens the extracted surface. While it
+    /// runs, reconstruct() sets the process-wide precision to fp32 and restores it afterwards.
+    bool fp32_grid = true;
     ProgressCallback progress;       ///< forwarded to every stage ("prior", "query-net", "sdf-grid")
 
     /// Named presets: "paper", "default", "fast". Throws pcp::Error for other names.
