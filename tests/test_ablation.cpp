@@ -77,7 +77,7 @@ struct ThreadsGuard {
 
 }  // namespace
 
-TEST_CASE("ablation: names round-trip; unknown names are refused with the list", "[ablation]") {
+TEST_CASE("ablation: names round-trip, unknown names are refused with the list", "[ablation]") {
     for (QueryAblation m : kModes) CHECK(pcp::parse_query_ablation(pcp::to_string(m)) == m);
     CHECK(pcp::to_string(QueryAblation::PointNetCode) == "pointnet-code");
     CHECK_THROWS_WITH(pcp::parse_query_ablation("no-dq"), Catch::Contains("unknown ablation 'no-dq'") && Catch::Contains("tune-prior"));

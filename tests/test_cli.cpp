@@ -186,7 +186,7 @@ TEST_CASE("cli: usage errors exit 2, --help exits 0 and lists defaults", "[cli]"
     CHECK(parity.err.find("--sign-repair-parity must be in [0, 6]") != std::string::npos);
 }
 
-TEST_CASE("cli: --ablation takes the paper's ablation names; others exit 2 with the list", "[cli]") {
+TEST_CASE("cli: --ablation takes the paper's ablation names, others exit 2 with the list", "[cli]") {
     const RunResult bad = run(bin("pcp_reconstruct") + " --ablation no-dq");
     INFO("stderr: " << bad.err);
     CHECK(bad.exit_code == 2);
@@ -257,7 +257,7 @@ TEST_CASE("cli: bad --spreads and --uniform-fraction exit 2 naming the flag", "[
     }
 }
 
-TEST_CASE("cli: pcp_eval --sdf-samples reports the sign agreement; bad sample files exit 1 naming the file", "[cli]") {
+TEST_CASE("cli: pcp_eval --sdf-samples reports the sign agreement, bad sample files exit 1 naming the file", "[cli]") {
     const fs::path dir = case_dir("eval_sdf");
     const pcp::Mesh sphere = pcp::test::uv_sphere(1.0, 16, 32);
     pcp::write_mesh((dir / "sphere.ply").string(), sphere);
@@ -299,7 +299,7 @@ TEST_CASE("cli: pcp_eval --sdf-samples reports the sign agreement; bad sample fi
     CHECK(bad_convention.err.find("--sdf-convention") != std::string::npos);
 }
 
-TEST_CASE("cli: --precision: bad values exit 2 naming the flag; the run's summary names the precision", "[cli]") {
+TEST_CASE("cli: --precision: bad values exit 2 naming the flag, and the run's summary names the precision", "[cli]") {
     for (const char* program : {"pcp_reconstruct", "pcp_train"}) {
         const RunResult bad = run(bin(program) + " --precision fp16 x.ply");
         INFO(program << " stderr: " << bad.err);

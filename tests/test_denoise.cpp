@@ -37,7 +37,7 @@ TEST_CASE("denoise: a noisy plane gets flatter with every pass", "[denoise]") {
     CHECK(sideways < 0.005);
 }
 
-TEST_CASE("denoise: a clean sphere stays on its surface; a far frame gives the same result", "[denoise]") {
+TEST_CASE("denoise: a clean sphere stays on its surface, a far frame gives the same result", "[denoise]") {
     const pcp::Points sphere = pcp::sample_sphere(5000, 0.4, Eigen::Vector3d::Zero(), 2).points;
     pcp::DenoiseOptions o;
     o.passes = 2;
@@ -52,7 +52,7 @@ TEST_CASE("denoise: a clean sphere stays on its surface; a far frame gives the s
     CHECK(((far.rowwise() - offset) - out).cwiseAbs().maxCoeff() < 1e-6);
 }
 
-TEST_CASE("denoise: zero passes are the identity; bad options are errors", "[denoise]") {
+TEST_CASE("denoise: zero passes are the identity, bad options are errors", "[denoise]") {
     const pcp::Points input = noisy_plane(100, 0.01, 3);
     pcp::DenoiseOptions o;
     CHECK(pcp::denoise_points(input, o) == input);

@@ -36,7 +36,7 @@ TEST_CASE("eval: a hand-computed three-point case", "[eval]") {
     CHECK(m.fscores[1].fscore == Approx(2.0 / 3.0));
 }
 
-TEST_CASE("eval: a mesh against itself gives the floor; normals agree", "[eval]") {
+TEST_CASE("eval: a mesh against itself gives the floor, normals agree", "[eval]") {
     const pcp::Mesh sphere = pcp::test::uv_sphere(1.0, 40, 80);
     pcp::EvalOptions opts;
     const pcp::EvalResult r = pcp::evaluate(sphere, sphere, opts);

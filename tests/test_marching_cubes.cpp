@@ -340,7 +340,7 @@ TEST_CASE("marching cubes: iso selects the level set and vertices interpolate li
     }
 }
 
-TEST_CASE("marching cubes: an empty level set gives an empty mesh; a bad grid is an error", "[mc]") {
+TEST_CASE("marching cubes: an empty level set gives an empty mesh, a bad grid is an error", "[mc]") {
     pcp::SdfGridOptions opts;
     opts.band = pcp::NarrowBand::Dense;
     const pcp::SdfGrid grid = pcp::evaluate_sdf_grid(batch(sphere_sdf({0, 0, 0}, 0.1)), cube_grid(8), opts);

@@ -378,7 +378,7 @@ TEST_CASE("nn: stage-2 gradients into Q through the frozen F match finite differ
     }
 }
 
-TEST_CASE("nn: pull loss derivatives match finite differences; p == t gives no NaN", "[nn]") {
+TEST_CASE("nn: pull loss derivatives match finite differences, p == t gives no NaN", "[nn]") {
     Rng rng(9, 0);
     const int N = 6;
     const MatrixXd q = randn(3, N, rng), t = randn(3, N, rng), g = randn(3, N, rng);

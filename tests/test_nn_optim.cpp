@@ -10,7 +10,7 @@
 
 using namespace pcp::nn;
 
-TEST_CASE("nn: RNG streams are reproducible and distinct; normals have the right moments", "[nn]") {
+TEST_CASE("nn: RNG streams are reproducible and distinct, normals have the right moments", "[nn]") {
     Rng a(42, 0), b(42, 0), c(42, 1), d(43, 0);
     for (int i = 0; i < 10; ++i) {
         const auto x = a.next_u64();

@@ -21,7 +21,7 @@ TEST_CASE("shapes: default shape samples lie on its surface and cover every part
     CHECK(on_fin > 1000);
 }
 
-TEST_CASE("shapes: sphere and torus samples lie on their surfaces; noise has the asked spread", "[shapes]") {
+TEST_CASE("shapes: sphere and torus samples lie on their surfaces, noise has the asked spread", "[shapes]") {
     const pcp::PointCloud s = pcp::sample_sphere(1000, 0.3, Eigen::Vector3d(1, 2, 3), 2);
     for (Eigen::Index i = 0; i < s.points.rows(); ++i)
         REQUIRE((s.points.row(i) - Eigen::RowVector3d(1, 2, 3)).norm() == Approx(0.3).epsilon(1e-12));
