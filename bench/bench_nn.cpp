@@ -109,6 +109,19 @@ Mat<float> randn(int r, int c, Rng& rng, double sd) {
 
 namespace {
 
+/// The networks at the paper's sizes for condition size C, initialised from `init` (F, E, Q in
+/// this order).
+struct PaperNets {
+    BranchMlp<float> F, Q;
+    PointNet<float> E;
+    PaperNets(int C, Rng& init)
+        : F(decoder_shape(C, kH, kL)), Q(query_net_shape(C, kH, kL)), E(pointnet_shape(C, kP, kHp)) {
+        init_decoder_geometric(F, init);
+        init_pointnet(E, init);
+        init_query_net(Q, init, true);
+    }
+};
+
 /// One column of the tables: an fp32 back end, or bf16 (on the default back end for the rest).
 struct Config {
     GemmBackend backend;
@@ -195,12 +208,10 @@ int main(int argc, char** argv) {
                     "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
         for (int C : conds) {
             Rng init(2, std::uint64_t(C));
-            BranchMlp<float> F(decoder_shape(C, kH, kL));
-            init_decoder_geometric(F, init);
-            PointNet<float> E(pointnet_shape(C, kP, kHp));
-            init_pointnet(E, init);
-            BranchMlp<float> Q(query_net_shape(C, kH, kL));
-            init_query_net(Q, init, true);
+            const PaperNets nets(C, init);
+            const BranchMlp<float>& F = nets.F;
+            const PointNet<float>& E = nets.E;
+            const BranchMlp<float>& Q = nets.Q;
             const int nmax = batches.back();
             Mat<float> pts = randn(3, nmax, rng, 0.3);
             Mat<float> q = pts + randn(3, nmax, rng, 0.03);
@@ -241,12 +252,10 @@ int main(int argc, char** argv) {
                     "inputs)\n\n| stage | loss fp32 | loss bf16 | gradient norm fp32 | relative L2 difference | cosine |\n"
                     "| --- | --- | --- | --- | --- | --- |\n", kH, kL, C, N);
         Rng init(3, 0);
-        BranchMlp<float> F(decoder_shape(C, kH, kL));
-        init_decoder_geometric(F, init);
-        PointNet<float> E(pointnet_shape(C, kP, kHp));
-        init_pointnet(E, init);
-        BranchMlp<float> Q(query_net_shape(C, kH, kL));
-        init_query_net(Q, init, true);
+        const PaperNets nets(C, init);
+        const BranchMlp<float>& F = nets.F;
+        const PointNet<float>& E = nets.E;
+        const BranchMlp<float>& Q = nets.Q;
         const Mat<float> pts = randn(3, N, rng, 0.3);
         const Mat<float> q = pts + randn(3, N, rng, 0.03);
         const Mat<float> no_codes;

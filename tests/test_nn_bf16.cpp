@@ -53,6 +53,12 @@ struct Shape {
     int m, n, k;
 };
 
+// Whether bf16 runs here; warns with the reason when it does not (the test then checks nothing).
+bool bf16_here() {
+    if (!bf16_available()) WARN("skipped: " << bf16_unavailable_reason());
+    return bf16_available();
+}
+
 }  // namespace
 
 TEST_CASE("nn: precision selection", "[nn]") {
@@ -78,10 +84,7 @@ TEST_CASE("nn: precision selection", "[nn]") {
 }
 
 TEST_CASE("nn: bf16 gemm equals the product of the bf16-rounded operands", "[nn]") {
-    if (!bf16_available()) {
-        WARN("skipped: " << bf16_unavailable_reason());
-        return;
-    }
+    if (!bf16_here()) return;
     RestoreGemmSettings restore;
     set_gemm_precision(Precision::Bf16);
     Rng rng(44, 0);
@@ -144,10 +147,7 @@ TEST_CASE("nn: bf16 gemm equals the product of the bf16-rounded operands", "[nn]
 }
 
 TEST_CASE("nn: under bf16, products below kBf16MinDim keep fp32 accuracy", "[nn]") {
-    if (!bf16_available()) {
-        WARN("skipped: " << bf16_unavailable_reason());
-        return;
-    }
+    if (!bf16_here()) return;
     RestoreGemmSettings restore;
     set_gemm_precision(Precision::Bf16);
     Rng rng(45, 0);
@@ -164,10 +164,7 @@ TEST_CASE("nn: under bf16, products below kBf16MinDim keep fp32 accuracy", "[nn]
 }
 
 TEST_CASE("nn: bf16 gemm keeps the caller's OpenMP thread count", "[nn]") {
-    if (!bf16_available()) {
-        WARN("skipped: " << bf16_unavailable_reason());
-        return;
-    }
+    if (!bf16_here()) return;
     RestoreGemmSettings restore;
     set_gemm_precision(Precision::Bf16);
     const int saved = omp_get_max_threads();
@@ -189,10 +186,7 @@ TEST_CASE("nn: bf16 gemm keeps the caller's OpenMP thread count", "[nn]") {
 // OpenMP workers) have shapes the training never uses, so bf16 evaluation creates new oneDNN
 // primitives where fp32 evaluation creates none: the counter tells which precision the grid ran.
 TEST_CASE("reconstruct: under bf16 the SDF grid runs in fp32 unless asked otherwise", "[nn]") {
-    if (!bf16_available()) {
-        WARN("skipped: " << bf16_unavailable_reason());
-        return;
-    }
+    if (!bf16_here()) return;
     RestoreGemmSettings restore;
     set_gemm_precision(Precision::Bf16);
     pcp::ReconstructOptions o = pcp::ReconstructOptions::preset("fast");

@@ -545,15 +545,19 @@ void set_gemm_backend(GemmBackend backend) {
     g_backend.store(int(backend));
 }
 
-GemmBackend gemm_backend() {
-    int b = g_backend.load(std::memory_order_relaxed);
-    if (b == kUnresolved) {
+// The value of a process-wide setting, resolved from its default (environment) on first use.
+template <class E, class Default>
+E resolved(std::atomic<int>& setting, Default default_value) {
+    int v = setting.load(std::memory_order_relaxed);
+    if (v == kUnresolved) {
         int expected = kUnresolved;
-        g_backend.compare_exchange_strong(expected, int(default_backend()));
-        b = g_backend.load();
+        setting.compare_exchange_strong(expected, int(default_value()));
+        v = setting.load();
     }
-    return GemmBackend(b);
+    return E(v);
 }
+
+GemmBackend gemm_backend() { return resolved<GemmBackend>(g_backend, default_backend); }
 
 const char* gemm_backend_name(GemmBackend backend) {
     return backend == GemmBackend::Blas ? "blas" : "eigen";
@@ -585,15 +589,7 @@ void set_gemm_precision(Precision precision) {
     g_precision.store(int(precision));
 }
 
-Precision gemm_precision() {
-    int p = g_precision.load(std::memory_order_relaxed);
-    if (p == kUnresolved) {
-        int expected = kUnresolved;
-        g_precision.compare_exchange_strong(expected, int(default_precision()));
-        p = g_precision.load();
-    }
-    return Precision(p);
-}
+Precision gemm_precision() { return resolved<Precision>(g_precision, default_precision); }
 
 long bf16_primitives_created() {
 #if defined(PCP_WITH_DNNL)
