@@ -306,6 +306,9 @@ TEST_CASE("cli: --precision: bad values exit 2 naming the flag, and the run's su
         CHECK(bad.exit_code == 2);
         CHECK(bad.err.find("--precision: unknown precision 'fp16': expected auto, fp32 or bf16") != std::string::npos);
     }
+    const RunResult grid = run(bin("pcp_reconstruct") + " --grid-precision half x.ply");
+    CHECK(grid.exit_code == 2);
+    CHECK(grid.err.find("--grid-precision must be fp32 or training (got 'half')") != std::string::npos);
     const fs::path dir = case_dir("precision");
     std::vector<std::string> wanted{"fp32"};
     if (pcp::nn::bf16_available()) {
