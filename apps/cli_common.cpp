@@ -1,10 +1,10 @@
 // Implementation of the apps' shared command-line plumbing (see cli_common.hpp).
 #include "cli_common.hpp"
 
-#include "pcp/error.hpp"
-#include "pcp/files.hpp"
-#include "pcp/io.hpp"
-#include "pcp/normalize.hpp"
+#include "pcp/core/error.hpp"
+#include "pcp/core/files.hpp"
+#include "pcp/io/io.hpp"
+#include "pcp/cloud/normalize.hpp"
 #include "pcp/nn/gemm.hpp"
 
 #include <Eigen/Core>

@@ -4,9 +4,9 @@
 // Exit codes: 0 success, 1 runtime error (bad input, failed run), 2 usage error, 130 cancelled.
 #pragma once
 
-#include "pcp/progress.hpp"
-#include "pcp/sampling.hpp"
-#include "pcp/types.hpp"
+#include "pcp/core/progress.hpp"
+#include "pcp/cloud/sampling.hpp"
+#include "pcp/core/types.hpp"
 
 #include <cxxopts.hpp>
 

@@ -3,10 +3,10 @@
 // tab-separated lines for scripts (--tsv).
 #include "cli_common.hpp"
 
-#include "pcp/error.hpp"
-#include "pcp/eval.hpp"
-#include "pcp/files.hpp"
-#include "pcp/io.hpp"
+#include "pcp/core/error.hpp"
+#include "pcp/eval/eval.hpp"
+#include "pcp/core/files.hpp"
+#include "pcp/io/io.hpp"
 
 #include <cmath>
 #include <cstdio>

@@ -7,14 +7,14 @@
 // closedness.
 #include "cli_common.hpp"
 
-#include "pcp/error.hpp"
-#include "pcp/files.hpp"
-#include "pcp/io.hpp"
-#include "pcp/normalize.hpp"
-#include "pcp/prior.hpp"
+#include "pcp/core/error.hpp"
+#include "pcp/core/files.hpp"
+#include "pcp/io/io.hpp"
+#include "pcp/cloud/normalize.hpp"
+#include "pcp/train/prior.hpp"
 #include "pcp/reconstruct.hpp"
-#include "pcp/regions.hpp"
-#include "pcp/shapes.hpp"
+#include "pcp/cloud/regions.hpp"
+#include "pcp/cloud/shapes.hpp"
 
 #include <cstdio>
 #include <filesystem>

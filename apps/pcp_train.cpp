@@ -4,12 +4,12 @@
 // --resume continues an interrupted run exactly.
 #include "cli_common.hpp"
 
-#include "pcp/error.hpp"
-#include "pcp/files.hpp"
-#include "pcp/normalize.hpp"
-#include "pcp/prior.hpp"
-#include "pcp/regions.hpp"
-#include "pcp/sampling.hpp"
+#include "pcp/core/error.hpp"
+#include "pcp/core/files.hpp"
+#include "pcp/cloud/normalize.hpp"
+#include "pcp/train/prior.hpp"
+#include "pcp/cloud/regions.hpp"
+#include "pcp/cloud/sampling.hpp"
 
 #include <cstdio>
 #include <filesystem>

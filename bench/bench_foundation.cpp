@@ -1,10 +1,10 @@
 // bench_foundation [CLOUD] [THREADS]: times the point-cloud core on a real scan (default: the 95k-point
 // gargoyle): KD-tree build, the 50-NN of every point, and drawing 1,000,000 queries with their
 // nearest-point targets. Prints a Markdown table row per stage; median of 5 repetitions.
-#include "pcp/io.hpp"
-#include "pcp/kdtree.hpp"
-#include "pcp/normalize.hpp"
-#include "pcp/sampling.hpp"
+#include "pcp/io/io.hpp"
+#include "pcp/cloud/kdtree.hpp"
+#include "pcp/cloud/normalize.hpp"
+#include "pcp/cloud/sampling.hpp"
 
 #include <algorithm>
 #include <chrono>

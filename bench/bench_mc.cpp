@@ -4,8 +4,8 @@
 // mode, on cost-free analytic SDFs (a sphere and a torus) so that the grid machinery itself is
 // measured. Each configuration runs in a forked child so that its peak RSS is its own.
 // Prints a Markdown table for docs/BENCHMARKS.md. Usage: bench_mc [max_resolution (default 512)]
-#include "pcp/marching_cubes.hpp"
-#include "pcp/sdf_grid.hpp"
+#include "pcp/mesh/marching_cubes.hpp"
+#include "pcp/mesh/sdf_grid.hpp"
 
 #include <omp.h>
 #include <sys/resource.h>

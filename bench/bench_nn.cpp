@@ -30,7 +30,7 @@
 // Usage: bench_nn [--quick] [--gemm eigen|blas|bf16] [--gradients]
 //   --quick: batch 400 and 2000 only; --gemm: only that configuration (default: every one built);
 //   --gradients: only the bf16-against-fp32 gradient table
-#include "../tests/alloc_counter.hpp"
+#include "../tests/support/alloc_counter.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/nn/steps.hpp"
 

@@ -3,8 +3,8 @@
 // with a minimum spanning tree (CGAL's mst_orient_normals), and runs CGAL's Poisson surface
 // reconstruction (Kazhdan et al. 2006; CGAL 5.5 has no screened variant). Writes the mesh in the
 // input's frame.
-#include "pcp/error.hpp"
-#include "pcp/io.hpp"
+#include "pcp/core/error.hpp"
+#include "pcp/io/io.hpp"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Surface_mesh.h>

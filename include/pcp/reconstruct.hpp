@@ -5,14 +5,14 @@
 // map it back to the input's frame.
 #pragma once
 
-#include "pcp/denoise.hpp"
-#include "pcp/normalize.hpp"
-#include "pcp/prior.hpp"
-#include "pcp/progress.hpp"
-#include "pcp/sampling.hpp"
-#include "pcp/sdf_grid.hpp"
-#include "pcp/sign_repair.hpp"
-#include "pcp/types.hpp"
+#include "pcp/cloud/denoise.hpp"
+#include "pcp/cloud/normalize.hpp"
+#include "pcp/train/prior.hpp"
+#include "pcp/core/progress.hpp"
+#include "pcp/cloud/sampling.hpp"
+#include "pcp/mesh/sdf_grid.hpp"
+#include "pcp/mesh/sign_repair.hpp"
+#include "pcp/core/types.hpp"
 
 #include <cstdint>
 #include <memory>

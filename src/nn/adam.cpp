@@ -1,7 +1,7 @@
 // Adam, learning-rate schedules and gradient clipping (see pcp/nn/adam.hpp).
 #include "pcp/nn/adam.hpp"
 
-#include "pcp/error.hpp"
+#include "pcp/core/error.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -3,8 +3,8 @@
 // length field before it trusts the content.
 #include "pcp/nn/checkpoint.hpp"
 
-#include "pcp/error.hpp"
-#include "pcp/files.hpp"
+#include "pcp/core/error.hpp"
+#include "pcp/core/files.hpp"
 
 #include <algorithm>
 #include <cstring>

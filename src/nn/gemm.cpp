@@ -16,7 +16,7 @@
 // scratchpad), so that a step with fixed shapes creates nothing after its first call.
 #include "pcp/nn/gemm.hpp"
 
-#include "pcp/error.hpp"
+#include "pcp/core/error.hpp"
 
 #include <Eigen/Core>
 #include <omp.h>

@@ -2,7 +2,7 @@
 // through nn::gemm; the element-wise parts are single passes over column-major memory.
 #include "pcp/nn/layers.hpp"
 
-#include "pcp/error.hpp"
+#include "pcp/core/error.hpp"
 #include "pcp/nn/gemm.hpp"
 
 namespace pcp::nn {

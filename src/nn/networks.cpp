@@ -20,7 +20,7 @@
 //  * dL/dx is never formed at a network's first layer (inputs are data).
 #include "pcp/nn/networks.hpp"
 
-#include "pcp/error.hpp"
+#include "pcp/core/error.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/nn/layers.hpp"
 

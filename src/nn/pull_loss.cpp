@@ -2,7 +2,7 @@
 // fixed-size 3-vectors. The loss sum is accumulated in double.
 #include "pcp/nn/pull_loss.hpp"
 
-#include "pcp/error.hpp"
+#include "pcp/core/error.hpp"
 
 #include <cmath>
 

@@ -2,7 +2,7 @@
 // sequences of the network passes, in the order of METHOD.md §3-4.
 #include "pcp/nn/steps.hpp"
 
-#include "pcp/error.hpp"
+#include "pcp/core/error.hpp"
 #include "pcp/nn/pull_loss.hpp"
 
 #include <utility>

@@ -1,7 +1,7 @@
 // The neural core uses libpcp's one generator (pcp/rng.hpp); this header keeps the nn:: names.
 #pragma once
 
-#include "pcp/rng.hpp"
+#include "pcp/core/rng.hpp"
 
 namespace pcp::nn {
 

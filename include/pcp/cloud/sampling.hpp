@@ -1,0 +1,55 @@
+// Query sampling (METHOD.md section 1, Neural-Pull's scheme): for each point p of the cloud,
+// sigma_p = distance to its `sigma_neighbor`-th nearest other point; queries q ~ N(p, (s sigma_p)^2 I)
+// for a spread factor s; the target of each query is its nearest point of the cloud. Draws come
+// from per-point RNG streams derived from (seed, point index), so the queries are identical
+// whatever the thread count.
+#pragma once
+
+#include "pcp/cloud/kdtree.hpp"
+#include "pcp/core/types.hpp"
+
+#include <cstdint>
+#include <vector>
+
+namespace pcp {
+
+struct SamplingOptions {
+    /// sigma_p is the distance to the sigma_neighbor-th nearest *other* point (paper: 50).
+    int sigma_neighbor = 50;
+    /// Spread factors s: query j of a point uses spreads[j % spreads.size()] (release: 0.5; one
+    /// release version alternates 0.5 and 1.0).
+    std::vector<float> spreads = {0.5f};
+    /// Queries drawn around each point (paper: 40).
+    int queries_per_point = 40;
+    /// sigma_p is clamped below to this fraction of the cloud's bounding-box diagonal, so that
+    /// clusters of duplicate points still get a non-zero spread.
+    float min_sigma_fraction = 1e-5f;
+    /// Extra queries drawn uniformly in the cloud's bounding box grown by uniform_margin times
+    /// its longest edge on every side, as a fraction of the near-surface queries (0 = the paper's
+    /// sampling). Their targets are nearest points like all others, so the pulling loss asks
+    /// |F| to match the distance to the data there too: that forbids zero crossings far from
+    /// the data (floating blobs, shells inside thick parts). Not in the paper: a libpcp option.
+    float uniform_fraction = 0.0f;
+    float uniform_margin = 0.05f;
+};
+
+/// The minimum number of points sample_queries needs with these options.
+Eigen::Index min_points_for(const SamplingOptions& options);
+
+struct QuerySet {
+    PointsF queries;       ///< M x 3, M = N * queries_per_point + U; rows i*qpp .. i*qpp+qpp-1 belong to
+                           ///< point i, the last U = round(uniform_fraction * N * qpp) are uniform
+    PointsF targets;       ///< M x 3, nearest cloud point of each query
+    IndexVector target_ids;  ///< M, index of the target in the cloud
+    Eigen::VectorXf sigma;   ///< N, sigma_p of each cloud point
+};
+
+/// sigma_p for every point of the tree's cloud (the distance to its sigma_neighbor-th other point,
+/// clamped below as described in SamplingOptions).
+Eigen::VectorXf point_sigmas(const KdTree& tree, const SamplingOptions& options);
+
+/// Draws the query set around the points of `tree` (its own cloud). OpenMP-parallel; the result
+/// depends only on the cloud, the options and `seed`.
+QuerySet sample_queries(const KdTree& tree, const SamplingOptions& options, std::uint64_t seed);
+
+}  // namespace pcp

@@ -1,0 +1,39 @@
+// Marching cubes over a sparse SDF grid (sdf_grid.hpp): the zero level set as an indexed triangle
+// mesh with one vertex per crossed grid edge, shared between neighbouring cubes and blocks (METHOD.md
+// §1 "marching cubes at the zero level set"). The case table is generated in code (src/mc_cases.*);
+// the rare cube whose polygon cannot be triangulated from its crossings alone without risking an
+// edge shared with the next cube also gets a vertex at that polygon's centre.
+// The mesh is closed and manifold wherever the level set is closed inside the grid, and every
+// triangle is counter-clockwise seen from the positive (outside) side.
+#pragma once
+
+#include "pcp/mesh/sdf_grid.hpp"
+#include "pcp/core/types.hpp"
+
+namespace pcp {
+
+/// How a face whose diagonal corners share a sign (an ambiguous face) is cut. Both rules look only
+/// at the face's own four values, so the two cubes sharing it agree and the mesh stays watertight.
+enum class McAmbiguity {
+    AsymptoticDecider,  ///< join the inside corners when the bilinear saddle is inside (< iso); a cube
+                        ///< with a joined face may need a centre vertex (none on the smooth test shapes;
+                        ///< 1.6 % of the vertices on a white-noise field)
+    SeparateInside,     ///< always separate the inside corners (a fixed sign convention): never a
+                        ///< centre vertex, exactly one vertex per crossed grid edge
+};
+
+struct MarchingCubesOptions {
+    double iso = 0.0;  ///< level to extract; should equal the SdfGridOptions::iso the band was built for
+    McAmbiguity ambiguity = McAmbiguity::AsymptoticDecider;
+};
+
+/// Extracts the level set `options.iso` from the stored blocks of `grid` (OpenMP over blocks).
+/// A sample is inside when its value < iso. Vertices lie on grid edges, placed by linear
+/// interpolation (plus the rare polygon centres, the mean of their polygon's vertices, listed
+/// last), and are ordered by their grid edge (so the result does not depend on the
+/// thread count or on which blocks were stored, as long as the cubes crossed are).
+/// @return vertices V x 3 (unit-box coordinates, as the grid), faces F x 3, counter-clockwise seen
+///         from outside (normals point towards positive SDF). Empty if the level set misses the grid.
+Mesh marching_cubes(const SdfGrid& grid, const MarchingCubesOptions& options = {});
+
+}  // namespace pcp

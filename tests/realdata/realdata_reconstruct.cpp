@@ -1,0 +1,79 @@
+// Real data (label realdata): reconstruct an ABC scan with the reduced preset, check L2-CD x 100
+// (Points2Surf protocol, against its gt.ply) and the sign of the result against the ground-truth
+// signed-distance samples.
+#include "pcp/eval/eval.hpp"
+#include "pcp/io/io.hpp"
+#include "pcp/reconstruct.hpp"
+#include "gemm_backends.hpp"
+#include "pcp/nn/gemm.hpp"
+#include "reduced_preset.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+namespace {
+
+// Reconstructs abc_00010039 with the reduced preset in the current gemm precision and checks it.
+void check_abc_00010039() {
+    const std::string dir = std::string(PCP_DATA_DIR) + "/abc/abc_00010039/";
+    const pcp::PointCloud cloud = pcp::read_point_cloud(dir + "input.ply");
+    REQUIRE(cloud.points.rows() == 6936);
+    pcp::ReconstructReport report;
+    const pcp::Mesh mesh = pcp::reconstruct(cloud.points, nullptr, pcp::test::reduced_preset(), &report);
+    CHECK(report.closed);
+    const pcp::PointCloud sdf = pcp::read_point_cloud(dir + "sdf_samples.ply");
+    const Eigen::VectorXd& truth = sdf.properties.at("sdf");
+    // The data's README says "negative inside", but gt.ply's own winding numbers say the opposite
+    // for every sample of this scan: in these files the sdf is positive inside. Take the
+    // convention from the ground-truth mesh, and require it to be unambiguous.
+    const pcp::Mesh gt = pcp::read_mesh(dir + "gt.ply");
+    double gt_agreement = 0;
+    const pcp::SdfConvention convention = pcp::detect_sdf_convention(gt, sdf.points, truth, &gt_agreement);
+    REQUIRE(gt_agreement >= 0.99);
+    const pcp::EvalResult r = pcp::evaluate(mesh, gt);
+    // Half of the samples lie closer to the surface than 0.0216, while the scan's points lie a
+    // median 0.011 (RMS 0.021) from gt.ply: there the sign is decided by the scanner's noise. The
+    // samples farther than that RMS distance (measured here) are counted separately.
+    const Eigen::VectorXd noise = pcp::point_to_mesh_distance(gt, cloud.points);
+    const double noise_rms = std::sqrt(noise.squaredNorm() / static_cast<double>(noise.size()));
+    CHECK(noise_rms > 0.015);  // the scan is as noisy as measured (0.0208)
+    const pcp::SignAgreement signs = pcp::sign_agreement(mesh, sdf.points, truth, convention, {noise_rms});
+    REQUIRE(signs.bins.size() == 2);
+    const double agreement = signs.fraction();
+    const double far_agreement = signs.bins[1].fraction();
+    WARN("abc_00010039, reduced preset, " << pcp::nn::precision_name(pcp::nn::gemm_precision()) << ": L2-CD x 100 = " << 100 * r.metrics.chamfer_l2 << ", NC = "
+         << r.metrics.normal_consistency << ", sign agreement " << agreement << " of " << signs.samples
+         << " samples, " << far_agreement << " of the " << signs.bins[1].samples << " farther than " << noise_rms
+         << " from the surface, " << mesh.faces.rows() << " faces");
+    // Measured with the reduced preset (seed 1, 2 threads, 10 % uniform queries, sign repair on,
+    // automatic denoising: 3 passes here): L2-CD x 100 = 0.045, NC 0.616, sign agreement 0.800,
+    // 0.977 on the 1032 samples farther than the noise. Before: 0.072 / 0.564 / 0.763 without
+    // denoising, 0.199 / 0.563 / 0.747 also without the sign repair, 0.348 also without uniform
+    // queries; Poisson baseline on this scan: 1.21 / 0.611 / 0.73. Issue 5 asks for 0.95 on all
+    // samples: not reached, and not reached either from noise-free points sampled on gt.ply (0.866,
+    // fast preset): the near samples need the surface placed to within a few thousandths
+    // (docs/BENCHMARKS.md, "Sign agreement"). These bounds guard against regressions.
+    CHECK(agreement >= 0.76);
+    CHECK(far_agreement >= 0.95);
+    CHECK(100 * r.metrics.chamfer_l2 < 0.07);
+}
+
+}  // namespace
+
+TEST_CASE("realdata: abc_00010039 reconstructs close to its ground truth with the right sign", "[realdata][reconstruct]") {
+    pcp::test::RestoreGemmSettings restore;
+    pcp::nn::set_gemm_precision(pcp::nn::Precision::Fp32);
+    check_abc_00010039();
+}
+
+// The apps' default (--precision auto) is bf16 where the CPU has it: the same bounds hold there.
+TEST_CASE("realdata: abc_00010039 in bf16 meets the same bounds", "[realdata][reconstruct]") {
+    if (!pcp::nn::bf16_available()) {
+        WARN("skipped: " << pcp::nn::bf16_unavailable_reason());
+        return;
+    }
+    pcp::test::RestoreGemmSettings restore;
+    pcp::nn::set_gemm_precision(pcp::nn::Precision::Bf16);
+    check_abc_00010039();
+}
