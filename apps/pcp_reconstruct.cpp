@@ -70,13 +70,13 @@ int main(int argc, char** argv) {
         options.add_options("Query network (stage 2)")
             ("steps", "Query-network steps", cxxopts::value<long>()->default_value(std::to_string(d.fit.steps)))
             ("batch", "Queries per step", cxxopts::value<int>()->default_value(std::to_string(d.fit.queries_per_step)))
-            ("lr", "Learning rate", cxxopts::value<double>()->default_value(fmt(d.fit.learning_rate)))
+            ("lr", "Learning rate", cxxopts::value<double>()->default_value(fmt(d.fit.schedule.learning_rate)))
             ("width", "Query-network width", cxxopts::value<int>()->default_value(std::to_string(d.fit.width)))
             ("ablation", "The paper's stage-2 ablations: none (the method) | no-shift | direct | free-code | pointnet-code | "
-                         "no-prior | tune-prior (see include/pcp/reconstruct.hpp)",
+                         "no-prior | tune-prior (see include/pcp/train/query_fit.hpp)",
              cxxopts::value<std::string>()->default_value(pcp::to_string(d.fit.ablation)))
-            ("checkpoint-every", "Steps between checkpoints", cxxopts::value<long>()->default_value(std::to_string(d.fit.checkpoint_every)))
-            ("progress-every", "Steps between progress lines", cxxopts::value<long>()->default_value(std::to_string(d.fit.progress_every)));
+            ("checkpoint-every", "Steps between checkpoints", cxxopts::value<long>()->default_value(std::to_string(d.fit.schedule.checkpoint_every)))
+            ("progress-every", "Steps between progress lines", cxxopts::value<long>()->default_value(std::to_string(d.fit.schedule.progress_every)));
         pcp::cli::add_precision_option(options, "Query network (stage 2)");
         options.add_options("Meshing")
             ("grid-precision", "fp32 | training: precision of the SDF evaluations for meshing and the sign repair; "
@@ -87,12 +87,12 @@ int main(int argc, char** argv) {
             ("iso", "Iso level", cxxopts::value<double>()->default_value(fmt(d.iso)))
             ("margin", "Margin around the cloud's unit box", cxxopts::value<double>()->default_value(fmt(d.margin)))
             ("sign-repair", "on | off: flip regions of the fitted field whose sign the data does not support, on a coarse "
-                            "grid (not in the paper; include/pcp/sign_repair.hpp)",
+                            "grid (not in the paper; include/pcp/mesh/sign_repair.hpp)",
              cxxopts::value<std::string>()->default_value(d.sign_repair.enabled ? "on" : "off"))
             ("sign-repair-resolution", "Cells per axis of the sign repair's coarse grid",
              cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.resolution)))
             ("sign-repair-parity", "Also flip coarse samples whose sign disagrees with at least this many of their 6 "
-                                   "axis-ray parity votes (0 = off, 1..6; include/pcp/sign_repair.hpp)",
+                                   "axis-ray parity votes (0 = off, 1..6; include/pcp/mesh/sign_repair.hpp)",
              cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.parity_votes)));
         options.parse_positional({"input"});
         pcp::cli::add_common_options(options);
@@ -124,7 +124,7 @@ int main(int argc, char** argv) {
         }
         if (args.count("steps")) o.fit.steps = args["steps"].as<long>();
         if (args.count("batch")) o.fit.queries_per_step = args["batch"].as<int>();
-        if (args.count("lr")) o.fit.learning_rate = args["lr"].as<double>();
+        if (args.count("lr")) o.fit.schedule.learning_rate = args["lr"].as<double>();
         if (args.count("width")) o.fit.width = args["width"].as<int>();
         try {
             o.fit.ablation = pcp::parse_query_ablation(args["ablation"].as<std::string>());
@@ -133,13 +133,13 @@ int main(int argc, char** argv) {
         }
         pcp::cli::apply_sampling_flags(args, o.fit.sampling);
         pcp::cli::apply_sampling_flags(args, o.self_prior.sampling);
-        if (args.count("checkpoint-every")) o.fit.checkpoint_every = args["checkpoint-every"].as<long>();
-        if (args.count("progress-every")) o.fit.progress_every = args["progress-every"].as<long>();
+        if (args.count("checkpoint-every")) o.fit.schedule.checkpoint_every = args["checkpoint-every"].as<long>();
+        if (args.count("progress-every")) o.fit.schedule.progress_every = args["progress-every"].as<long>();
         if (args.count("resolution")) o.resolution = args["resolution"].as<int>();
         if (args.count("iso")) o.iso = args["iso"].as<double>();
         if (args.count("margin")) o.margin = args["margin"].as<double>();
-        if (o.fit.steps < 1 || o.fit.queries_per_step < 1 || !(o.fit.learning_rate > 0) || o.fit.width < 1 ||
-            o.fit.progress_every < 1 || o.fit.checkpoint_every < 0)
+        if (o.fit.steps < 1 || o.fit.queries_per_step < 1 || !(o.fit.schedule.learning_rate > 0) || o.fit.width < 1 ||
+            o.fit.schedule.progress_every < 1 || o.fit.schedule.checkpoint_every < 0)
             throw pcp::cli::UsageError("steps, batch, width and learning rate must be positive");
         if (o.resolution < 8 || o.resolution > 2048) throw pcp::cli::UsageError("--resolution must be in [8, 2048]");
         if (!(o.margin >= 0)) throw pcp::cli::UsageError("--margin must be >= 0");
@@ -180,7 +180,7 @@ int main(int argc, char** argv) {
             throw pcp::cli::UsageError("--sign-repair-parity must be in [0, 6]");
         if (args["builtin-points"].as<long>() < pcp::min_points_for(o.fit.sampling))
             throw pcp::cli::UsageError("--builtin-points must be >= " + std::to_string(pcp::min_points_for(o.fit.sampling)));
-        o.fit.seed = o.self_prior.seed = common.seed;
+        o.fit.schedule.seed = o.self_prior.schedule.seed = common.seed;
 
         const bool builtin = !args.count("input");
         const std::string input = builtin ? "<default shape>" : args["input"].as<std::string>();
@@ -226,9 +226,9 @@ int main(int argc, char** argv) {
                                               {"sign repair", o.sign_repair.enabled ? "on (coarse grid " + std::to_string(std::min(o.sign_repair.resolution, o.resolution)) + ")" : "off"},
                                               {"precision", precision + (o.fp32_grid && precision.rfind("bf16", 0) == 0 ? ", SDF grid fp32" : "")},
                                               {"seed", std::to_string(common.seed)}});
-        o.progress = pcp::cli::make_progress_printer(log, o.fit.progress_every);
-        o.fit.checkpoint_path = output + ".ckpt";
-        o.fit.resume = args.count("resume") > 0;
+        o.progress = pcp::cli::make_progress_printer(log, o.fit.schedule.progress_every);
+        o.fit.schedule.checkpoint_path = output + ".ckpt";
+        o.fit.schedule.resume = args.count("resume") > 0;
         pcp::ReconstructReport report;
         const pcp::Mesh mesh = pcp::reconstruct(cloud.points, prior_path.empty() ? nullptr : &prior, o, &report);
         if (report.cancelled) throw pcp::cli::Cancelled("interrupted; continue the query-network stage with --resume");
@@ -236,7 +236,7 @@ int main(int argc, char** argv) {
         wo.ascii = args.count("ascii") > 0;
         pcp::write_mesh(output, mesh, wo);
         std::error_code ec;
-        std::filesystem::remove(o.fit.checkpoint_path, ec);
+        std::filesystem::remove(o.fit.schedule.checkpoint_path, ec);
         std::ostringstream s;
         s << "wrote " << output << ": " << mesh.vertices.rows() << " vertices, " << mesh.faces.rows() << " faces, "
           << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "")

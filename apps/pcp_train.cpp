@@ -36,8 +36,8 @@ int main(int argc, char** argv) {
             ("preset", "paper | default | fast (explicit options below override it)", cxxopts::value<std::string>()->default_value("default"))
             ("dry-run", "Load and split the inputs, report, and stop")
             ("resume", "Continue from the checkpoint (OUTPUT.ckpt) of an interrupted run")
-            ("checkpoint-every", "Steps between checkpoints", cxxopts::value<long>()->default_value(std::to_string(d.checkpoint_every)))
-            ("progress-every", "Steps between progress lines", cxxopts::value<long>()->default_value(std::to_string(d.progress_every)));
+            ("checkpoint-every", "Steps between checkpoints", cxxopts::value<long>()->default_value(std::to_string(d.schedule.checkpoint_every)))
+            ("progress-every", "Steps between progress lines", cxxopts::value<long>()->default_value(std::to_string(d.schedule.progress_every)));
         options.add_options("Regions and queries")
             ("grid", "Cells per axis of the region grid (1 = no split)", cxxopts::value<int>()->default_value(std::to_string(d.regions.grid)))
             ("normalization", "Per-region normalisation: none, center, scale, both",
@@ -52,10 +52,10 @@ int main(int argc, char** argv) {
             ("condition", "Condition size C", cxxopts::value<int>()->default_value(std::to_string(d.network.condition)))
             ("epochs", "Passes over all regions", cxxopts::value<int>()->default_value(std::to_string(d.epochs)))
             ("steps", "Stop after this many steps instead (0 = epochs x regions)", cxxopts::value<long>()->default_value(std::to_string(d.max_steps)))
-            ("lr", "Learning rate", cxxopts::value<double>()->default_value(fmt(d.learning_rate)))
-            ("schedule", "constant | cosine", cxxopts::value<std::string>()->default_value(d.schedule == pcp::LrScheduleKind::Cosine ? "cosine" : "constant"))
-            ("warmup", "Warm-up steps", cxxopts::value<long>()->default_value(std::to_string(d.warmup_steps)))
-            ("clip", "Gradient-norm clipping (0 = off)", cxxopts::value<double>()->default_value(fmt(d.clip_norm)));
+            ("lr", "Learning rate", cxxopts::value<double>()->default_value(fmt(d.schedule.learning_rate)))
+            ("schedule", "constant | cosine", cxxopts::value<std::string>()->default_value(pcp::to_string(d.schedule.lr_schedule)))
+            ("warmup", "Warm-up steps", cxxopts::value<long>()->default_value(std::to_string(d.schedule.warmup_steps)))
+            ("clip", "Gradient-norm clipping (0 = off)", cxxopts::value<double>()->default_value(fmt(d.schedule.clip_norm)));
         pcp::cli::add_precision_option(options, "Networks and optimisation");
         options.parse_positional({"inputs"});
         pcp::cli::add_common_options(options);
@@ -82,18 +82,14 @@ int main(int argc, char** argv) {
             set("condition", o.network.condition);
             set("epochs", o.epochs);
             set("steps", o.max_steps);
-            set("lr", o.learning_rate);
-            set("warmup", o.warmup_steps);
-            set("clip", o.clip_norm);
-            set("checkpoint-every", o.checkpoint_every);
-            set("progress-every", o.progress_every);
+            set("lr", o.schedule.learning_rate);
+            set("warmup", o.schedule.warmup_steps);
+            set("clip", o.schedule.clip_norm);
+            set("checkpoint-every", o.schedule.checkpoint_every);
+            set("progress-every", o.schedule.progress_every);
             pcp::cli::apply_sampling_flags(args, o.sampling);
             if (args.count("normalization")) o.regions.normalization = pcp::parse_region_normalization(args["normalization"].as<std::string>());
-            if (args.count("schedule")) {
-                const std::string s = args["schedule"].as<std::string>();
-                if (s != "constant" && s != "cosine") throw pcp::Error("--schedule must be constant or cosine");
-                o.schedule = s == "cosine" ? pcp::LrScheduleKind::Cosine : pcp::LrScheduleKind::Constant;
-            }
+            if (args.count("schedule")) o.schedule.lr_schedule = pcp::parse_lr_schedule(args["schedule"].as<std::string>());
         } catch (const pcp::Error& e) {
             throw pcp::cli::UsageError(e.what());
         }
@@ -101,10 +97,10 @@ int main(int argc, char** argv) {
         if (o.regions.min_points < pcp::min_points_for(o.sampling))
             throw pcp::cli::UsageError("--min-region-points must be >= " + std::to_string(pcp::min_points_for(o.sampling)));
         if (o.queries_per_step < 1 || o.sampling.queries_per_point < 1 || o.network.width < 1 || o.network.depth < 1 ||
-            o.network.condition < 1 || o.epochs < 0 || o.max_steps < 0 || !(o.learning_rate > 0) || o.checkpoint_every < 0 ||
-            o.progress_every < 1)
+            o.network.condition < 1 || o.epochs < 0 || o.max_steps < 0 || !(o.schedule.learning_rate > 0) ||
+            o.schedule.checkpoint_every < 0 || o.schedule.progress_every < 1)
             throw pcp::cli::UsageError("sizes, steps and rates must be positive");
-        o.seed = common.seed;
+        o.schedule.seed = common.seed;
 
         const std::vector<std::string> positional =
             args.count("inputs") ? args["inputs"].as<std::vector<std::string>>() : std::vector<std::string>{};
@@ -132,8 +128,9 @@ int main(int argc, char** argv) {
         const double t_read = pcp::cli::seconds_since(t_start);
 
         const auto t_prep = std::chrono::steady_clock::now();
-        o.checkpoint_path = dry_run ? "" : output + ".ckpt";
-        o.progress = pcp::cli::make_progress_printer(log, o.progress_every);
+        o.schedule.checkpoint_path = dry_run ? "" : output + ".ckpt";
+        o.schedule.progress = pcp::cli::make_progress_printer(log, o.schedule.progress_every);
+        o.schedule.resume = args.count("resume") > 0;
         pcp::PriorTrainer trainer(clouds, o);
         const double t_setup = pcp::cli::seconds_since(t_prep);
         pcp::cli::print_parameter_table(log, {{"inputs", std::to_string(inputs.size()) + " cloud(s)"},
@@ -143,18 +140,17 @@ int main(int argc, char** argv) {
                                               {"precision", precision},
                                               {"output", dry_run ? "(dry run)" : output}});
         if (dry_run) return 0;
-        if (args.count("resume")) {
-            trainer.resume(o.checkpoint_path);
-            log.info("resumed from " + o.checkpoint_path + " at step " + std::to_string(trainer.steps_done()));
-        }
+        if (o.schedule.resume)
+            log.info(std::filesystem::exists(o.schedule.checkpoint_path) ? "resuming from " + o.schedule.checkpoint_path
+                                                                         : "no checkpoint " + o.schedule.checkpoint_path + ": starting at step 0");
         const auto t_train = std::chrono::steady_clock::now();
         const bool finished = trainer.run();
         const double train_s = pcp::cli::seconds_since(t_train);
         if (!finished) throw pcp::cli::Cancelled("stopped at step " + std::to_string(trainer.steps_done()) + "; checkpoint " +
-                                                 o.checkpoint_path + " (continue with --resume)");
+                                                 o.schedule.checkpoint_path + " (continue with --resume)");
         pcp::save_prior(output, trainer.prior());
         std::error_code ec;
-        std::filesystem::remove(o.checkpoint_path, ec);
+        std::filesystem::remove(o.schedule.checkpoint_path, ec);
         log.info("wrote " + output + " | read " + fmt(t_read) + " s | regions + queries " + fmt(t_setup) + " s | training " +
                  fmt(train_s) + " s (" + precision + ") | final loss " + fmt(trainer.recent_loss()) + " | peak memory " +
                  fmt(pcp::cli::peak_rss_mib()) + " MiB");

@@ -1,5 +1,5 @@
-// Benchmark of the SDF grid machinery and marching cubes (include/pcp/sdf_grid.hpp,
-// include/pcp/marching_cubes.hpp): wall time of evaluation and extraction, SDF evaluations
+// Benchmark of the SDF grid machinery and marching cubes (include/pcp/mesh/sdf_grid.hpp,
+// include/pcp/mesh/marching_cubes.hpp): wall time of evaluation and extraction, SDF evaluations
 // against (R+1)^3, stored blocks and peak memory, for resolutions 128, 256, 512 and each band
 // mode, on cost-free analytic SDFs (a sphere and a torus) so that the grid machinery itself is
 // measured. Each configuration runs in a forked child so that its peak RSS is its own.

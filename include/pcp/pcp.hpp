@@ -1,19 +1,31 @@
-// Umbrella header: everything a user of libpcp needs.
+// Umbrella header: everything a user of libpcp needs, in the order of the data flow.
 #pragma once
 
 #include "pcp/core/error.hpp"
-#include "pcp/eval/eval.hpp"
 #include "pcp/core/files.hpp"
-#include "pcp/io/io.hpp"
-#include "pcp/cloud/kdtree.hpp"
-#include "pcp/mesh/marching_cubes.hpp"
-#include "pcp/cloud/normalize.hpp"
-#include "pcp/cloud/regions.hpp"
-#include "pcp/cloud/sampling.hpp"
-#include "pcp/mesh/sdf_grid.hpp"
-#include "pcp/cloud/shapes.hpp"
-#include "pcp/train/prior.hpp"
 #include "pcp/core/progress.hpp"
-#include "pcp/reconstruct.hpp"
 #include "pcp/core/types.hpp"
 #include "pcp/version.hpp"
+
+#include "pcp/io/io.hpp"
+
+#include "pcp/cloud/denoise.hpp"
+#include "pcp/cloud/kdtree.hpp"
+#include "pcp/cloud/normalize.hpp"
+#include "pcp/cloud/prepared_cloud.hpp"
+#include "pcp/cloud/regions.hpp"
+#include "pcp/cloud/sampling.hpp"
+#include "pcp/cloud/shapes.hpp"
+
+#include "pcp/train/prior.hpp"
+#include "pcp/train/query_fit.hpp"
+#include "pcp/train/schedule.hpp"
+
+#include "pcp/mesh/marching_cubes.hpp"
+#include "pcp/mesh/mesh_check.hpp"
+#include "pcp/mesh/sdf_grid.hpp"
+#include "pcp/mesh/sign_repair.hpp"
+
+#include "pcp/reconstruct.hpp"
+
+#include "pcp/eval/eval.hpp"

@@ -53,7 +53,6 @@ CubeTables make_cube_tables() {
 }  // namespace
 
 Mesh marching_cubes(const SdfGrid& grid, const MarchingCubesOptions& options) {
-    PCP_CHECK(std::isfinite(options.iso), "marching_cubes: iso must be finite");
     const int R = grid.spec.resolution, B = grid.block_cells, S = B + 1, nb = grid.blocks_per_axis;
     PCP_CHECK(R >= 2 && B >= 2 && nb == (R + B - 1) / B,
               "marching_cubes: the grid is not initialised (resolution " << R << ", block_cells " << B
@@ -81,9 +80,9 @@ Mesh marching_cubes(const SdfGrid& grid, const MarchingCubesOptions& options) {
         const Eigen::Vector3i X(int(key % nb), int((key / nb) % nb), int(key / (std::int64_t(nb) * nb)));
         const Eigen::Vector3i c = (Eigen::Vector3i::Constant(B).array().min(R - X.array() * B)).matrix();
         const float* block = grid.values.data() + b * S3;
-        // w(l) = value - iso at local sample l; inside when w < 0.
+        // w(l) = value at local sample l; inside when w < 0.
         auto w = [&](int i, int j, int k) {
-            return double(block[(std::int64_t(k) * S + j) * S + i]) - options.iso;
+            return double(block[(std::int64_t(k) * S + j) * S + i]);
         };
         BlockMesh& out = blocks[std::size_t(b)];
 

@@ -276,7 +276,7 @@ void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, st
 }
 
 /// Coarse-to-fine band: an octree over the blocks, starting from one node covering all of them.
-/// A node is refined (or, at block size, kept) when |sdf(centre) - iso| <= factor * half-diagonal:
+/// A node is refined (or, at block size, kept) when |sdf(centre)| <= factor * half-diagonal:
 /// for a true distance (1-Lipschitz) a node failing the test contains no zero.
 std::vector<std::int64_t> coarse_band(const SdfBatchFn& sdf, const GridSpec& spec, const Layout& L,
                                       const SdfGridOptions& options, SdfGridStats& stats) {
@@ -300,7 +300,7 @@ std::vector<std::int64_t> coarse_band(const SdfBatchFn& sdf, const GridSpec& spe
         stats.evaluations += centres.rows();
         std::vector<Eigen::Vector3i> children;
         for (std::size_t n = 0; n < nodes.size(); ++n) {
-            if (std::abs(double(values[n]) - options.iso) > options.coarse_factor * half_diagonal[n]) continue;
+            if (std::abs(double(values[n])) > options.coarse_factor * half_diagonal[n]) continue;
             if (size == 1) {
                 kept.push_back(L.key(nodes[n].x(), nodes[n].y(), nodes[n].z()));
                 continue;
@@ -362,8 +362,8 @@ std::vector<std::int64_t> near_point_band(const GridSpec& spec, const Layout& L,
 }
 
 /// Blocks not stored that the zero set enters through a face of a stored block: the face's
-/// samples have both signs (value < iso and value >= iso).
-std::vector<std::int64_t> growth_candidates(const Builder& G, double iso) {
+/// samples have both signs (value < 0 and value >= 0).
+std::vector<std::int64_t> growth_candidates(const Builder& G) {
     const Layout& L = G.L;
     std::vector<std::int64_t> found;
 #pragma omp parallel
@@ -385,7 +385,7 @@ std::vector<std::int64_t> growth_candidates(const Builder& G, double iso) {
                     l[a] = side ? c[a] : 0;
                     for (l[v] = 0; l[v] <= c[v]; ++l[v])
                         for (l[u] = 0; l[u] <= c[u]; ++l[u]) {
-                            const bool in = double(block[L.local_index(l.x(), l.y(), l.z())]) < iso;
+                            const bool in = double(block[L.local_index(l.x(), l.y(), l.z())]) < 0.0;
                             below = below || in;
                             above = above || !in;
                         }
@@ -411,7 +411,6 @@ void check_options(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGridOpt
     PCP_CHECK(options.block_cells >= 2 && options.block_cells <= 64,
               "sdf_grid: block_cells " << options.block_cells << " is out of range 2..64");
     PCP_CHECK(options.batch_size >= 1, "sdf_grid: batch_size " << options.batch_size << " must be positive");
-    PCP_CHECK(std::isfinite(options.iso), "sdf_grid: iso must be finite");
     PCP_CHECK(std::isfinite(options.coarse_factor) && options.coarse_factor > 0.0,
               "sdf_grid: coarse_factor " << options.coarse_factor << " must be positive (1 is exact for a true distance)");
     PCP_CHECK(std::isfinite(options.point_band_cells) && options.point_band_cells >= 0.0,
@@ -425,7 +424,6 @@ SdfGrid evaluate_impl(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGrid
     SdfGrid grid;
     grid.spec = spec;
     grid.block_cells = options.block_cells;
-    grid.iso = options.iso;
     Builder G;
     G.L = make_layout(spec.resolution, options.block_cells);
     grid.blocks_per_axis = G.L.nb;
@@ -452,7 +450,7 @@ SdfGrid evaluate_impl(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGrid
     canonicalize(G);
 
     while (options.grow) {
-        const std::vector<std::int64_t> added = growth_candidates(G, options.iso);
+        const std::vector<std::int64_t> added = growth_candidates(G);
         if (added.empty()) break;
         const std::size_t old = G.keys.size();
         G.keys.insert(G.keys.end(), added.begin(), added.end());

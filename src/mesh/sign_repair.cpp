@@ -35,8 +35,8 @@ struct Group {
 
 }  // namespace
 
-SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const Eigen::Ref<const PointsF>& points, double iso,
-                       const SignRepairOptions& options) {
+SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& tree, const SignRepairOptions& options) {
+    const PointsF& points = tree.points();
     PCP_CHECK(options.resolution >= 2 && options.resolution <= 256,
               "sign repair: resolution must be in [2, 256] (got " << options.resolution << ")");
     PCP_CHECK(options.near_cells >= 0 && options.near_spacings >= 0 && std::isfinite(options.near_cells) &&
@@ -47,7 +47,6 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const Eigen::Re
     PCP_CHECK(options.parity_votes >= 0 && options.parity_votes <= 6,
               "sign repair: parity_votes must be in [0, 6] (got " << options.parity_votes << ")");
     PCP_CHECK(points.rows() >= 2, "sign repair: needs at least 2 points (got " << points.rows() << ")");
-    iso_ = static_cast<float>(iso);
     spec_.resolution = options.resolution;
     spec_.box = box;
     if (!options.enabled) return;
@@ -55,7 +54,6 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const Eigen::Re
     // 1. The coarse field, through the grid module's dense mode (same batching, same checks).
     SdfGridOptions go;
     go.band = NarrowBand::Dense;
-    go.iso = iso;
     const SdfGrid grid = evaluate_sdf_grid(field, spec_, go);
     stats_.evaluations = grid.stats.evaluations;
     const int n1 = spec_.resolution + 1;
@@ -67,12 +65,11 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const Eigen::Re
         for (int j = 0; j < n1; ++j)
             for (int i = 0; i < n1; ++i) {
                 const std::int64_t n = index(i, j, k);
-                sign[n] = grid.value(i, j, k) > iso_ ? 1 : -1;
+                sign[n] = grid.value(i, j, k) > 0.0f ? 1 : -1;
                 nodes.row(n) = spec_.sample_position(i, j, k).cast<float>().transpose();
             }
 
     // 2. Near the data: within tau of an input point.
-    const KdTree tree(points);
     const Eigen::VectorXf spacing = tree.kth_distance(points, 2);  // nearest other point
     std::vector<float> sorted(spacing.data(), spacing.data() + spacing.size());
     std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
@@ -248,7 +245,7 @@ void SignRepair::apply(const Eigen::Ref<const PointsF>& points, Eigen::Ref<Eigen
     const Eigen::Array3f inv = (double(R) / spec_.box.extent().array()).cast<float>();
     for (Eigen::Index p = 0; p < points.rows(); ++p) {
         const float v = values(p);
-        const int s = v > iso_ ? 1 : -1;
+        const int s = v > 0.0f ? 1 : -1;
         const Eigen::Array3f t = (points.row(p).transpose().array() - lo) * inv;
         int c[3];
         float f[3];
@@ -267,7 +264,7 @@ void SignRepair::apply(const Eigen::Ref<const PointsF>& points, Eigen::Ref<Eigen
             else if (state == s) vote -= w;
         }
         if (vote <= 0) continue;
-        values(p) = 2 * iso_ - v;
+        values(p) = -v;
     }
 }
 

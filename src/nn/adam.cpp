@@ -45,10 +45,6 @@ double LrSchedule::at(std::int64_t step) const {
             const double x = std::min(1.0, double(step - warmup_steps) / span);
             return final_lr + 0.5 * (lr - final_lr) * (1.0 + std::cos(3.14159265358979323846 * x));
         }
-        case Kind::Step: {
-            PCP_CHECK(step_every > 0, "nn::LrSchedule: step_every must be > 0");
-            return lr * std::pow(step_factor, double((step - warmup_steps) / step_every));
-        }
     }
     return lr;
 }

@@ -89,7 +89,7 @@ std::string serialise(const NetFile<S>& f) {
     w.put(std::uint64_t(0));  // payload size, patched below
     const std::size_t payload_start = w.buf.size();
     w.put(f.step);
-    for (std::uint64_t s : f.rng) w.put(s);
+    for (int i = 0; i < 4; ++i) w.put(std::uint64_t(0));  // reserved
     w.put(std::uint64_t(f.metadata.size()));
     w.put_bytes(f.metadata.data(), f.metadata.size());
     w.put(std::uint32_t(f.nets.size()));
@@ -122,7 +122,7 @@ template <class T, class S>
 NetFile<S> parse(const std::string& path, Reader& r) {
     NetFile<S> f;
     f.step = r.template get<std::uint64_t>("step");
-    for (auto& s : f.rng) s = r.template get<std::uint64_t>("RNG state");
+    for (int i = 0; i < 4; ++i) r.template get<std::uint64_t>("reserved words");
     const auto meta_len = r.template get<std::uint64_t>("metadata length");
     const char* meta = r.take(static_cast<std::size_t>(meta_len), "metadata");
     f.metadata.assign(meta, static_cast<std::size_t>(meta_len));

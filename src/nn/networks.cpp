@@ -23,6 +23,7 @@
 #include "pcp/core/error.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/nn/layers.hpp"
+#include "nn/planted_bug.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -375,11 +376,17 @@ void add_or_set(Eigen::Map<Mat<S>> dst, const Mat<S>& src, GradMode mode) {
 
 }  // namespace
 
+namespace detail {
+bool& tangent_dropped() {
+    thread_local bool dropped = false;
+    return dropped;
+}
+}  // namespace detail
+
 template <class S>
 void decoder_double_backward(const BranchMlp<S>& net, BranchMlpCache<S>& c, const CMatRef<S>& q,
                              const CMatRef<S>& f, const CVecRef<S>& dL_ds, const CMatRef<S>& dL_dg,
-                             VecRef<S> dL_dtheta, VecRef<S> dL_df, GradMode mode,
-                             bool test_drop_tangent) {
+                             VecRef<S> dL_dtheta, VecRef<S> dL_df, GradMode mode) {
     const BranchMlpShape& sh = net.shape;
     const ParamLayout& lay = net.layout;
     const int H = sh.width;
@@ -403,7 +410,7 @@ void decoder_double_backward(const BranchMlp<S>& net, BranchMlpCache<S>& c, cons
     const S beta = mode == GradMode::Overwrite ? S(0) : S(1);
     const auto lam = as_col<S>(dL_ds);                  // N x 1
     const auto lam_row = dL_ds.transpose().array();     // 1 x N, for column scaling
-    const bool tangent = !test_drop_tangent;
+    const bool tangent = !detail::tangent_dropped();
 
     // Branch a (q -> H): tangent u_0a = m_0a .* (W_a v); dL/dW_a = D_0a (lambda q + v)^T,
     // dL/db_a = D_0a lambda.
@@ -687,7 +694,7 @@ void init_pointnet(PointNet<S>& E, Rng& rng) {
     template void decoder_double_backward<S>(const BranchMlp<S>&, BranchMlpCache<S>&,              \
                                              const CMatRef<S>&, const CMatRef<S>&,                 \
                                              const CVecRef<S>&, const CMatRef<S>&, VecRef<S>,      \
-                                             VecRef<S>, GradMode, bool);                           \
+                                             VecRef<S>, GradMode);                           \
     template void decoder_shared_condition_grad<S>(const BranchMlp<S>&, BranchMlpCache<S>&,        \
                                                    const CVecRef<S>&, VecRef<S>, GradMode);        \
     template void pointnet_forward<S>(const PointNet<S>&, const CMatRef<S>&, PointNetCache<S>&);   \

@@ -38,7 +38,7 @@ template <class S>
 double Stage1Workspace<S>::loss_and_grad(const PointNet<S>& E, const BranchMlp<S>& F,
                                          const CMatRef<S>& q, const CMatRef<S>& t,
                                          const CMatRef<S>& points, VecRef<S> dL_dE,
-                                         VecRef<S> dL_dF, bool test_drop_tangent) {
+                                         VecRef<S> dL_dF) {
     const Eigen::Index n = q.cols();
     // Forward: f = PointNet(points) (C x 1); s = F(q, f); g = ds/dq (3 x N).
     pointnet_forward(E, points, enc);
@@ -49,7 +49,7 @@ double Stage1Workspace<S>::loss_and_grad(const PointNet<S>& E, const BranchMlp<S
                                   dL_ds.head(n), dL_dg.leftCols(n));
     // Decoder: double backprop (through s and g); encoder: dL/df = sum_i lambda_i g_f^(i).
     decoder_double_backward<S>(F, dec, q, enc.f(), dL_ds.head(n), dL_dg.leftCols(n), dL_dF, dL_df,
-                               GradMode::Overwrite, test_drop_tangent);
+                               GradMode::Overwrite);
     pointnet_backward<S>(E, enc, points, dL_df, dL_dE, GradMode::Overwrite);
     return L;
 }

@@ -6,19 +6,17 @@
 // PointNet input (paper section 3: "regard their nearest neighbors ... as the input to PointNet").
 #include "pcp/train/prior.hpp"
 
-#include "train/step_loop.hpp"
-#include "pcp/core/error.hpp"
 #include "pcp/cloud/kdtree.hpp"
+#include "pcp/core/error.hpp"
+#include "pcp/core/rng.hpp"
 #include "pcp/nn/checkpoint.hpp"
 #include "pcp/nn/networks.hpp"
+#include "pcp/nn/pull_loss.hpp"
 #include "pcp/nn/steps.hpp"
-#include "pcp/cloud/normalize.hpp"
-#include "pcp/core/rng.hpp"
 #include "pcp/version.hpp"
+#include "train/scaffold.hpp"
 
 #include <algorithm>
-#include <chrono>
-#include <deque>
 #include <numeric>
 #include <sstream>
 
@@ -39,9 +37,9 @@ PriorTrainOptions PriorTrainOptions::preset(const std::string& name) {
         o.network.condition = 256;
         o.queries_per_step = 2000;
         o.epochs = 40;
-        o.learning_rate = 5e-4;
-        o.schedule = LrScheduleKind::Cosine;
-        o.warmup_steps = 100;
+        o.schedule.learning_rate = 5e-4;
+        o.schedule.lr_schedule = LrScheduleKind::Cosine;
+        o.schedule.warmup_steps = 100;
         o.sampling.uniform_fraction = 0.1f;  // see QueryFitOptions presets and docs/BENCHMARKS.md
         return o;
     }
@@ -54,9 +52,9 @@ PriorTrainOptions PriorTrainOptions::preset(const std::string& name) {
         o.sampling.queries_per_point = 20;
         o.queries_per_step = 1000;
         o.epochs = 20;
-        o.learning_rate = 1e-3;
-        o.schedule = LrScheduleKind::Cosine;
-        o.warmup_steps = 50;
+        o.schedule.learning_rate = 1e-3;
+        o.schedule.lr_schedule = LrScheduleKind::Cosine;
+        o.schedule.warmup_steps = 50;
         o.sampling.uniform_fraction = 0.1f;
         return o;
     }
@@ -128,16 +126,14 @@ PointsF LocalPrior::pull(const Eigen::Ref<const PointsF>& queries, const Eigen::
     PointsF pulled(n, 3);
     const int batch = 4096;
     nn::BranchMlpCache<float> cache(nets_->decoder.shape, batch, true);
+    MatF p(3, batch);
     for (Eigen::Index start = 0; start < n; start += batch) {
         const Eigen::Index len = std::min<Eigen::Index>(batch, n - start);
         const MatF q = queries.middleRows(start, len).transpose();
         nn::branch_mlp_forward<float>(nets_->decoder, q, f, cache);
         nn::decoder_input_grad<float>(nets_->decoder, cache, false);
-        for (Eigen::Index i = 0; i < len; ++i) {
-            const Eigen::Vector3f g = cache.g_a.col(i);
-            const float norm = std::sqrt(g.squaredNorm() + 1e-12f);
-            pulled.row(start + i) = (q.col(i) - cache.out(0, i) * g / norm).transpose();
-        }
+        nn::pull_points<float>(p.leftCols(len), q, cache.out.leftCols(len), cache.g_a.leftCols(len));
+        pulled.middleRows(start, len) = p.leftCols(len).transpose();
     }
     return pulled;
 }
@@ -161,8 +157,8 @@ std::string summarize(const PriorTrainOptions& o) {
     s << " uniform=" << o.sampling.uniform_fraction << "/" << o.sampling.uniform_margin << " width=" << o.network.width << " depth=" << o.network.depth << " condition=" << o.network.condition
       << " pointnet=" << o.network.pointnet_width << "/" << o.network.pointnet_hidden
       << " queries_per_step=" << o.queries_per_step << " epochs=" << o.epochs << " max_steps=" << o.max_steps
-      << " lr=" << o.learning_rate << " schedule=" << (o.schedule == LrScheduleKind::Cosine ? "cosine" : "constant")
-      << " warmup=" << o.warmup_steps << " clip=" << o.clip_norm << " seed=" << o.seed;
+      << " lr=" << o.schedule.learning_rate << " schedule=" << to_string(o.schedule.lr_schedule)
+      << " warmup=" << o.schedule.warmup_steps << " clip=" << o.schedule.clip_norm << " seed=" << o.schedule.seed;
     return s.str();
 }
 
@@ -170,7 +166,7 @@ std::string summarize(const PriorTrainOptions& o) {
 
 struct PriorTrainer::Impl {
     PriorTrainOptions options;
-    std::string fingerprint;         ///< inputs + settings: a checkpoint must match it
+    detail::CheckpointId checkpoint_id{"pcp-prior-checkpoint 1", "", "prior-training"};  ///< fingerprint: inputs + settings
     std::vector<std::string> names;
     std::vector<RegionPool> pools;
     std::int64_t total = 0;
@@ -178,8 +174,9 @@ struct PriorTrainer::Impl {
     MatF q, t;                       ///< 3 x queries_per_step batch buffers
     std::vector<std::uint32_t> order;  ///< region order of the current epoch
     std::int64_t order_epoch = -1;
-    std::deque<double> recent;       ///< losses of the last steps
-    std::size_t recent_cap = 100;
+    detail::LossWindow recent;       ///< losses of the last min(regions, 100) steps
+
+    void prepare(const std::vector<const PreparedCloud*>& clouds);
 
     std::size_t region_of_step(std::int64_t step) {
         const auto r = static_cast<std::int64_t>(pools.size());
@@ -187,7 +184,7 @@ struct PriorTrainer::Impl {
         if (epoch != order_epoch) {  // a seeded shuffle per epoch (Fisher-Yates)
             order.resize(pools.size());
             std::iota(order.begin(), order.end(), 0u);
-            Rng rng(options.seed ^ 0x5EED0001ull, static_cast<std::uint64_t>(epoch));
+            Rng rng(options.schedule.seed ^ 0x5EED0001ull, static_cast<std::uint64_t>(epoch));
             for (std::size_t i = order.size(); i > 1; --i) std::swap(order[i - 1], order[rng.below(i)]);
             order_epoch = epoch;
         }
@@ -197,62 +194,64 @@ struct PriorTrainer::Impl {
 
 PriorTrainer::PriorTrainer(const std::vector<TrainingCloud>& clouds, const PriorTrainOptions& options)
     : impl_(std::make_unique<Impl>()) {
-    Impl& m = *impl_;
-    m.options = options;
+    impl_->options = options;
     PCP_CHECK(!clouds.empty(), "prior training: no input clouds");
+    std::vector<PreparedCloud> prepared;
+    prepared.reserve(clouds.size());
+    for (const TrainingCloud& cloud : clouds) prepared.emplace_back(cloud.points, cloud.name, min_points_for(options.sampling));
+    std::vector<const PreparedCloud*> list;
+    for (const PreparedCloud& c : prepared) list.push_back(&c);
+    impl_->prepare(list);
+}
+
+PriorTrainer::PriorTrainer(const PreparedCloud& cloud, const PriorTrainOptions& options) : impl_(std::make_unique<Impl>()) {
+    impl_->options = options;
+    impl_->prepare({&cloud});
+}
+
+/// Splits every (unit-box) cloud into regions, samples each region's query pool in region
+/// coordinates, fingerprints inputs and settings, and builds the networks and the optimiser.
+void PriorTrainer::Impl::prepare(const std::vector<const PreparedCloud*>& clouds) {
+    const TrainingSchedule& sched = options.schedule;
     PCP_CHECK(options.queries_per_step >= 1, "prior training: queries_per_step must be >= 1");
     PCP_CHECK(options.epochs >= 1 || options.max_steps > 0, "prior training: epochs or max_steps must be >= 1");
     PCP_CHECK(options.regions.min_points >= min_points_for(options.sampling),
               "prior training: regions need at least " << min_points_for(options.sampling)
                                                       << " points for the query spread (min_points)");
+    std::ostringstream fp;
+    fp << summarize(options);
     for (std::size_t c = 0; c < clouds.size(); ++c) {
-        const TrainingCloud& cloud = clouds[c];
-        m.names.push_back(cloud.name);
-        check_point_cloud(cloud.points, cloud.name, min_points_for(options.sampling));
-        const PointsF unit = fit_unit_box(cloud.points).to_unit(cloud.points);
-        const std::vector<Region> regions = split_into_regions(unit, options.regions);
+        const PreparedCloud& cloud = *clouds[c];
+        PCP_CHECK(cloud.size() >= min_points_for(options.sampling),
+                  cloud.name() << ": " << cloud.size() << " points; the query spread needs at least " << min_points_for(options.sampling));
+        names.push_back(cloud.name());
+        fp << " | " << cloud.name() << " (" << cloud.size() << " points, data " << std::hex << cloud.input_hash() << std::dec << ")";
+        const std::vector<Region> regions = split_into_regions(cloud.unit(), options.regions);
         for (std::size_t r = 0; r < regions.size(); ++r) {
-            const KdTree tree(region_points(unit, regions[r]));
-            const std::uint64_t stream_seed = options.seed * 0x9E3779B97F4A7C15ull + (c << 20) + r;
+            // Each region's own points in region coordinates: sigma_p and the targets come from
+            // the region alone (paper section 3), so each region has its own small tree.
+            const KdTree tree(region_points(cloud.unit(), regions[r]));
+            const std::uint64_t stream_seed = sched.seed * 0x9E3779B97F4A7C15ull + (c << 20) + r;
             const QuerySet set = sample_queries(tree, options.sampling, stream_seed);
             RegionPool pool;
             pool.cloud = c;
             pool.queries = set.queries.transpose();
             pool.targets = set.targets.transpose();
-            m.pools.push_back(std::move(pool));
+            pools.push_back(std::move(pool));
         }
     }
-    {
-        std::ostringstream fp;
-        fp << summarize(options);
-        std::uint64_t h = nn::fnv1a64(nullptr, 0);
-        for (const TrainingCloud& cloud : clouds) {
-            fp << " | " << cloud.name << " (" << cloud.points.rows() << " points)";
-            h = nn::fnv1a64(cloud.points.data(), static_cast<std::size_t>(cloud.points.size()) * sizeof(double), h);
-        }
-        fp << " | data " << std::hex << h;
-        m.fingerprint = fp.str();
-    }
-    PCP_CHECK(!m.pools.empty(), "prior training: no region of any input has at least " << options.regions.min_points
-                                    << " points (a " << options.regions.grid << "^3 grid); use a coarser grid or denser clouds");
-    const auto r = static_cast<std::int64_t>(m.pools.size());
-    m.total = options.max_steps > 0 ? options.max_steps : static_cast<std::int64_t>(options.epochs) * r;
-    m.recent_cap = static_cast<std::size_t>(std::min<std::int64_t>(r, 100));
+    checkpoint_id.fingerprint = fp.str();
+    PCP_CHECK(!pools.empty(), "prior training: no region of any input has at least " << options.regions.min_points
+                                  << " points (a " << options.regions.grid << "^3 grid); use a coarser grid or denser clouds");
+    const auto r = static_cast<std::int64_t>(pools.size());
+    total = options.max_steps > 0 ? options.max_steps : static_cast<std::int64_t>(options.epochs) * r;
+    recent = detail::LossWindow(static_cast<std::size_t>(std::min<std::int64_t>(r, 100)));
 
-    LocalPrior init(options.network, options.seed);
-    nn::OptimOptions optim;
-    optim.lr.lr = options.learning_rate;
-    if (options.schedule == LrScheduleKind::Cosine) {
-        optim.lr.kind = nn::LrSchedule::Kind::Cosine;
-        optim.lr.total_steps = m.total;
-        optim.lr.final_lr = 0.02 * options.learning_rate;
-    }
-    optim.lr.warmup_steps = options.warmup_steps;
-    optim.clip_norm = options.clip_norm;
+    LocalPrior init(options.network, sched.seed);
     const int qn = options.queries_per_step;
-    m.trainer = std::make_unique<nn::Stage1Trainer<float>>(init.encoder(), init.decoder(), qn, qn, optim);
-    m.q.resize(3, qn);
-    m.t.resize(3, qn);
+    trainer = std::make_unique<nn::Stage1Trainer<float>>(init.encoder(), init.decoder(), qn, qn, detail::make_optim(sched, total));
+    q.resize(3, qn);
+    t.resize(3, qn);
 }
 
 PriorTrainer::~PriorTrainer() = default;
@@ -261,39 +260,24 @@ std::int64_t PriorTrainer::steps_done() const { return impl_->trainer->steps; }
 std::int64_t PriorTrainer::total_steps() const { return impl_->total; }
 std::size_t PriorTrainer::num_regions() const { return impl_->pools.size(); }
 
-double PriorTrainer::recent_loss() const {
-    if (impl_->recent.empty()) return 0.0;
-    return std::accumulate(impl_->recent.begin(), impl_->recent.end(), 0.0) / static_cast<double>(impl_->recent.size());
-}
+double PriorTrainer::recent_loss() const { return impl_->recent.mean(); }
 
 double PriorTrainer::step() {
     Impl& m = *impl_;
     const std::int64_t s = m.trainer->steps;
     const RegionPool& pool = m.pools[m.region_of_step(s)];
-    const auto available = static_cast<std::uint64_t>(pool.queries.cols());
-    Rng rng(m.options.seed ^ 0x5EED0002ull, static_cast<std::uint64_t>(s));
-    for (int i = 0; i < m.options.queries_per_step; ++i) {
-        const auto j = static_cast<Eigen::Index>(rng.below(available));
-        m.q.col(i) = pool.queries.col(j);
-        m.t.col(i) = pool.targets.col(j);
-    }
+    detail::draw_batch(pool.queries, pool.targets, Rng(m.options.schedule.seed ^ 0x5EED0002ull, static_cast<std::uint64_t>(s)), m.q, m.t);
     const double loss = m.trainer->step(m.q, m.t, m.t);
-    PCP_CHECK(std::isfinite(loss), "prior training: the loss became " << loss << " at step " << s
-                                       << "; lower the learning rate or enable gradient clipping");
-    m.recent.push_back(loss);
-    if (m.recent.size() > m.recent_cap) m.recent.pop_front();
+    detail::check_loss(loss, "prior training", s);
+    m.recent.push(loss);
     return loss;
 }
-
-namespace {
-constexpr const char* kPriorCheckpointFormat = "pcp-prior-checkpoint 1";
-}  // namespace
 
 void PriorTrainer::checkpoint(const std::string& path) const {
     const Impl& m = *impl_;
     nn::NetFile<float> file;
     file.step = static_cast<std::uint64_t>(m.trainer->steps);
-    file.metadata = std::string("format=") + kPriorCheckpointFormat + "\nfingerprint=" + m.fingerprint + "\n";
+    file.metadata = detail::checkpoint_metadata(m.checkpoint_id).text();
     file.nets.push_back(nn::make_record("encoder", m.trainer->encoder, &m.trainer->adam_encoder));
     file.nets.push_back(nn::make_record("decoder", m.trainer->decoder, &m.trainer->adam_decoder));
     nn::save_net_file(path, file);
@@ -301,11 +285,7 @@ void PriorTrainer::checkpoint(const std::string& path) const {
 
 void PriorTrainer::resume(const std::string& path) {
     Impl& m = *impl_;
-    const nn::NetFile<float> file = nn::load_net_file<float>(path);
-    PCP_CHECK(file.metadata.rfind(std::string("format=") + kPriorCheckpointFormat + "\n", 0) == 0,
-              path << ": not a prior-training checkpoint of this version");
-    PCP_CHECK(file.metadata.find("fingerprint=" + m.fingerprint + "\n") != std::string::npos,
-              path << ": the checkpoint was written for other inputs or settings; run without --resume to start again");
+    const nn::NetFile<float> file = detail::load_checkpoint(path, m.checkpoint_id, m.total);
     const nn::NetRecord<float>& enc = file.get("encoder");
     const nn::NetRecord<float>& dec = file.get("decoder");
     PCP_CHECK(enc.has_adam && dec.has_adam, path << ": the checkpoint holds no optimiser state");
@@ -314,19 +294,14 @@ void PriorTrainer::resume(const std::string& path) {
     m.trainer->adam_encoder = enc.adam;
     m.trainer->adam_decoder = dec.adam;
     m.trainer->steps = static_cast<std::int64_t>(file.step);
-    PCP_CHECK(m.trainer->steps <= m.total, path << ": the checkpoint is past the planned " << m.total << " steps");
     m.recent.clear();
 }
 
-bool PriorTrainer::run() {
-    const Impl& m = *impl_;
-    return detail::run_step_loop(*this, {"prior", m.total, m.options.progress_every, m.options.checkpoint_every,
-                                         m.options.checkpoint_path, m.options.progress});
-}
+bool PriorTrainer::run() { return detail::run_step_loop(*this, "prior", impl_->total, impl_->options.schedule); }
 
 LocalPrior PriorTrainer::prior() const {
     const Impl& m = *impl_;
-    LocalPrior p(m.options.network, m.options.seed);
+    LocalPrior p(m.options.network, m.options.schedule.seed);
     p.encoder() = m.trainer->encoder;
     p.decoder() = m.trainer->decoder;
     p.regions = m.options.regions;

@@ -7,10 +7,10 @@
 // refuses a checkpoint written for something else.
 #include "pcp/core/error.hpp"
 #include "pcp/nn/checkpoint.hpp"
+#include "pcp/nn/metadata.hpp"
 #include "pcp/train/prior.hpp"
 #include "pcp/version.hpp"
 
-#include <map>
 #include <sstream>
 
 namespace pcp {
@@ -26,63 +26,33 @@ std::string join_floats(const std::vector<float>& v) {
     return s.str();
 }
 
-std::multimap<std::string, std::string> parse_metadata(const std::string& path, const std::string& text) {
-    std::multimap<std::string, std::string> kv;
-    std::istringstream in(text);
-    std::string line;
-    while (std::getline(in, line)) {
-        const auto eq = line.find('=');
-        PCP_CHECK(eq != std::string::npos, path << ": malformed prior metadata line '" << line << "'");
-        kv.emplace(line.substr(0, eq), line.substr(eq + 1));
-    }
-    return kv;
-}
-
-const std::string& value_of(const std::multimap<std::string, std::string>& kv, const std::string& path,
-                            const std::string& key) {
-    const auto it = kv.find(key);
-    PCP_CHECK(it != kv.end(), path << ": the prior file lacks '" << key << "'");
-    return it->second;
-}
-
-template <class T>
-T number_of(const std::multimap<std::string, std::string>& kv, const std::string& path, const std::string& key) {
-    const std::string& v = value_of(kv, path, key);
-    std::istringstream in(v);
-    T x{};
-    in >> x;
-    PCP_CHECK(!in.fail() && in.eof(), path << ": bad value '" << v << "' for '" << key << "' in the prior file");
-    return x;
-}
-
 }  // namespace
 
 void save_prior(const std::string& path, const LocalPrior& prior) {
-    std::ostringstream meta;
-    meta.precision(17);
-    meta << "format=" << kPriorFormat << "\n"
-         << "library_version=" << PCP_VERSION_STRING << "\n"
-         << "grid=" << prior.regions.grid << "\n"
-         << "normalization=" << to_string(prior.regions.normalization) << "\n"
-         << "min_region_points=" << prior.regions.min_points << "\n"
-         << "sigma_neighbor=" << prior.sampling.sigma_neighbor << "\n"
-         << "queries_per_point=" << prior.sampling.queries_per_point << "\n"
-         << "spreads=" << join_floats(prior.sampling.spreads) << "\n"
-         << "uniform_fraction=" << prior.sampling.uniform_fraction << "\n"
-         << "uniform_margin=" << prior.sampling.uniform_margin << "\n"
-         << "width=" << prior.network.width << "\n"
-         << "depth=" << prior.network.depth << "\n"
-         << "condition=" << prior.network.condition << "\n"
-         << "pointnet_width=" << prior.network.pointnet_width << "\n"
-         << "pointnet_hidden=" << prior.network.pointnet_hidden << "\n"
-         << "steps=" << prior.provenance.steps << "\n"
-         << "final_loss=" << prior.provenance.final_loss << "\n"
-         << "trained_with=" << prior.provenance.library_version << "\n"
-         << "settings=" << prior.provenance.settings << "\n";
-    for (const std::string& input : prior.provenance.inputs) meta << "input=" << input << "\n";
+    nn::Metadata meta;
+    meta.add("format", kPriorFormat);
+    meta.add("library_version", PCP_VERSION_STRING);
+    meta.add_number("grid", prior.regions.grid);
+    meta.add("normalization", to_string(prior.regions.normalization));
+    meta.add_number("min_region_points", prior.regions.min_points);
+    meta.add_number("sigma_neighbor", prior.sampling.sigma_neighbor);
+    meta.add_number("queries_per_point", prior.sampling.queries_per_point);
+    meta.add("spreads", join_floats(prior.sampling.spreads));
+    meta.add_number("uniform_fraction", prior.sampling.uniform_fraction);
+    meta.add_number("uniform_margin", prior.sampling.uniform_margin);
+    meta.add_number("width", prior.network.width);
+    meta.add_number("depth", prior.network.depth);
+    meta.add_number("condition", prior.network.condition);
+    meta.add_number("pointnet_width", prior.network.pointnet_width);
+    meta.add_number("pointnet_hidden", prior.network.pointnet_hidden);
+    meta.add_number("steps", prior.provenance.steps);
+    meta.add_number("final_loss", prior.provenance.final_loss);
+    meta.add("trained_with", prior.provenance.library_version);
+    meta.add("settings", prior.provenance.settings);
+    for (const std::string& input : prior.provenance.inputs) meta.add("input", input);
     nn::NetFile<float> file;
     file.step = static_cast<std::uint64_t>(prior.provenance.steps);
-    file.metadata = meta.str();
+    file.metadata = meta.text();
     file.nets.push_back(nn::make_record("encoder", prior.encoder()));
     file.nets.push_back(nn::make_record("decoder", prior.decoder()));
     nn::save_net_file(path, file);
@@ -90,32 +60,31 @@ void save_prior(const std::string& path, const LocalPrior& prior) {
 
 LocalPrior load_prior(const std::string& path) {
     const nn::NetFile<float> file = nn::load_net_file<float>(path);
-    const auto kv = parse_metadata(path, file.metadata);
-    const auto format = kv.find("format");
-    PCP_CHECK(format != kv.end(), path << ": not a prior file (a network file without prior settings)");
-    PCP_CHECK(format->second == kPriorFormat,
-              path << ": prior format '" << format->second << "' is not supported (this version reads '" << kPriorFormat << "')");
+    const nn::Metadata kv(file.metadata, path + ": the prior file");
+    PCP_CHECK(kv.has("format"), path << ": not a prior file (a network file without prior settings)");
+    PCP_CHECK(kv.get("format") == kPriorFormat,
+              path << ": prior format '" << kv.get("format") << "' is not supported (this version reads '" << kPriorFormat << "')");
     LocalPrior prior;
-    prior.regions.grid = number_of<int>(kv, path, "grid");
-    prior.regions.normalization = parse_region_normalization(value_of(kv, path, "normalization"));
-    prior.regions.min_points = number_of<Eigen::Index>(kv, path, "min_region_points");
-    prior.sampling.sigma_neighbor = number_of<int>(kv, path, "sigma_neighbor");
-    prior.sampling.queries_per_point = number_of<int>(kv, path, "queries_per_point");
+    prior.regions.grid = kv.number<int>("grid");
+    prior.regions.normalization = parse_region_normalization(kv.get("normalization"));
+    prior.regions.min_points = kv.number<Eigen::Index>("min_region_points");
+    prior.sampling.sigma_neighbor = kv.number<int>("sigma_neighbor");
+    prior.sampling.queries_per_point = kv.number<int>("queries_per_point");
     prior.sampling.spreads.clear();
-    std::istringstream spreads(value_of(kv, path, "spreads"));
+    std::istringstream spreads(kv.get("spreads"));
     for (std::string item; std::getline(spreads, item, ',');) prior.sampling.spreads.push_back(std::stof(item));
-    prior.sampling.uniform_fraction = number_of<float>(kv, path, "uniform_fraction");
-    prior.sampling.uniform_margin = number_of<float>(kv, path, "uniform_margin");
-    prior.network.width = number_of<int>(kv, path, "width");
-    prior.network.depth = number_of<int>(kv, path, "depth");
-    prior.network.condition = number_of<int>(kv, path, "condition");
-    prior.network.pointnet_width = number_of<int>(kv, path, "pointnet_width");
-    prior.network.pointnet_hidden = number_of<int>(kv, path, "pointnet_hidden");
-    prior.provenance.steps = number_of<std::int64_t>(kv, path, "steps");
-    prior.provenance.final_loss = number_of<double>(kv, path, "final_loss");
-    prior.provenance.library_version = value_of(kv, path, "trained_with");
-    prior.provenance.settings = value_of(kv, path, "settings");
-    for (auto [it, end] = kv.equal_range("input"); it != end; ++it) prior.provenance.inputs.push_back(it->second);
+    prior.sampling.uniform_fraction = kv.number<float>("uniform_fraction");
+    prior.sampling.uniform_margin = kv.number<float>("uniform_margin");
+    prior.network.width = kv.number<int>("width");
+    prior.network.depth = kv.number<int>("depth");
+    prior.network.condition = kv.number<int>("condition");
+    prior.network.pointnet_width = kv.number<int>("pointnet_width");
+    prior.network.pointnet_hidden = kv.number<int>("pointnet_hidden");
+    prior.provenance.steps = kv.number<std::int64_t>("steps");
+    prior.provenance.final_loss = kv.number<double>("final_loss");
+    prior.provenance.library_version = kv.get("trained_with");
+    prior.provenance.settings = kv.get("settings");
+    prior.provenance.inputs = kv.all("input");
     prior.encoder() = nn::to_pointnet(file.get("encoder"));
     prior.decoder() = nn::to_branch_mlp(file.get("decoder"));
     PCP_CHECK(prior.decoder().shape.width == prior.network.width && prior.decoder().shape.depth == prior.network.depth &&

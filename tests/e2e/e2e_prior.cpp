@@ -22,8 +22,8 @@ TEST_CASE("e2e prior: training lowers the loss and pulls held-out queries to the
     o.sampling.spreads = {0.5f, 1.0f, 2.0f};
     o.max_steps = 6000;
     o.queries_per_step = 1000;
-    o.learning_rate = 2e-3;
-    o.warmup_steps = 20;
+    o.schedule.learning_rate = 2e-3;
+    o.schedule.warmup_steps = 20;
     const std::vector<pcp::TrainingCloud> clouds = {
         {"torus a", pcp::sample_torus(4000, 0.35, 0.12, 1).points},
         {"torus b", pcp::sample_torus(4000, 0.30, 0.15, 2).points},

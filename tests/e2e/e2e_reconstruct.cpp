@@ -1,5 +1,6 @@
 // End-to-end: reconstruct test-generated shapes with a reduced preset and bound the error.
 #include "pcp/eval/eval.hpp"
+#include "pcp/mesh/mesh_check.hpp"
 #include "pcp/reconstruct.hpp"
 #include "pcp/cloud/shapes.hpp"
 #include "reduced_preset.hpp"
@@ -8,25 +9,19 @@
 
 #include <Eigen/Geometry>
 
-#include <map>
 
 TEST_CASE("e2e: the default shape reconstructs closed, outward and close to its surface", "[e2e]") {
     const pcp::PointCloud cloud = pcp::sample_default_shape(10000, 0.002, 1);
     pcp::ReconstructReport report;
     const pcp::Mesh mesh = pcp::reconstruct(cloud.points, nullptr, pcp::test::reduced_preset(), &report);
     REQUIRE(mesh.faces.rows() > 0);
-    std::map<std::pair<int, int>, int> edges;
-    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
-        for (int e = 0; e < 3; ++e) {
-            const int a = mesh.faces(f, e), b = mesh.faces(f, (e + 1) % 3);
-            ++edges[{std::min(a, b), std::max(a, b)}];
-        }
-    long open_edges = 0, overfull = 0;
-    for (const auto& kv : edges) open_edges += kv.second == 1, overfull += kv.second > 2;
-    WARN("mesh: " << mesh.vertices.rows() << " vertices, " << mesh.faces.rows() << " faces, boundary edges " << open_edges
-                  << ", edges with > 2 faces " << overfull << ", sign flipped " << report.sign_flipped
+    const pcp::MeshTopology topo = pcp::mesh_topology(mesh);
+    WARN("mesh: " << topo.V << " vertices, " << topo.F << " faces, edges not in two faces " << topo.edges_not_in_two_faces
+                  << ", Euler characteristic " << topo.euler() << ", sign flipped " << report.sign_flipped
                   << ", prior loss " << report.prior_loss << ", fit loss " << report.fit_loss);
     CHECK(report.closed);
+    CHECK(report.closed == pcp::is_closed_and_oriented(mesh));
+    CHECK(topo.closed_manifold_oriented());
     // The sign repair ran on its coarse grid (64^3 samples), and they are counted.
     CHECK(report.sign_repair.evaluations == 65LL * 65 * 65);
     CHECK(report.sdf_evaluations > report.sign_repair.evaluations);

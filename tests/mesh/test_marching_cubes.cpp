@@ -308,18 +308,17 @@ TEST_CASE("marching cubes: random fields give closed manifold meshes with both a
     }
 }
 
-TEST_CASE("marching cubes: iso selects the level set and vertices interpolate linearly", "[mc]") {
+TEST_CASE("marching cubes: the field minus a level selects that level set, vertices interpolate linearly", "[mc]") {
     // A linear field: every vertex lies exactly on the plane x + 2y - z = iso.
     auto plane = [](const Eigen::Vector3d& p) { return p.x() + 2.0 * p.y() - p.z(); };
     const pcp::GridSpec spec = cube_grid(10, 1.0);
     pcp::SdfGridOptions opts;
     opts.band = pcp::NarrowBand::Dense;
     opts.block_cells = 3;
-    const pcp::SdfGrid grid = pcp::evaluate_sdf_grid(batch(plane), spec, opts);
     for (double iso : {0.0, 0.37}) {
-        pcp::MarchingCubesOptions mc;
-        mc.iso = iso;
-        const pcp::Mesh mesh = pcp::marching_cubes(grid, mc);
+        const pcp::SdfGrid grid =
+            pcp::evaluate_sdf_grid(batch([&](const Eigen::Vector3d& p) { return plane(p) - iso; }), spec, opts);
+        const pcp::Mesh mesh = pcp::marching_cubes(grid);
         REQUIRE(mesh.vertices.rows() > 0);
         double worst = 0.0;
         for (Eigen::Index v = 0; v < mesh.vertices.rows(); ++v)
@@ -343,10 +342,9 @@ TEST_CASE("marching cubes: iso selects the level set and vertices interpolate li
 TEST_CASE("marching cubes: an empty level set gives an empty mesh, a bad grid is an error", "[mc]") {
     pcp::SdfGridOptions opts;
     opts.band = pcp::NarrowBand::Dense;
-    const pcp::SdfGrid grid = pcp::evaluate_sdf_grid(batch(sphere_sdf({0, 0, 0}, 0.1)), cube_grid(8), opts);
-    pcp::MarchingCubesOptions far;
-    far.iso = -5.0;
-    const pcp::Mesh mesh = pcp::marching_cubes(grid, far);
+    const pcp::SdfGrid grid =
+        pcp::evaluate_sdf_grid(batch([](const Eigen::Vector3d& p) { return sphere_sdf({0, 0, 0}, 0.1)(p) + 5.0; }), cube_grid(8), opts);
+    const pcp::Mesh mesh = pcp::marching_cubes(grid);
     CHECK(mesh.vertices.rows() == 0);
     CHECK(mesh.faces.rows() == 0);
     CHECK_THROWS_AS(pcp::marching_cubes(pcp::SdfGrid{}), pcp::Error);

@@ -56,7 +56,7 @@ TEST_CASE("sign repair: a negative pocket away from the data is flipped and leav
     const ScalarSdf pocket = sphere_sdf({0.44, 0, 0}, 0.1);  // 0.04 from the sphere, no data on it
     const pcp::SdfBatchFn field = batch([&](const Eigen::Vector3d& p) { return std::min(sphere(p), pocket(p)); });
     const pcp::PointsF points = sphere_points(4000, 0.3, Eigen::Vector3d::Zero(), 1);
-    const pcp::SignRepair repair(field, kBox, points, 0.0);
+    const pcp::SignRepair repair(field, kBox, pcp::KdTree(points));
 
     CHECK(repair.stats().evaluations == 65LL * 65 * 65);
     CHECK(repair.stats().flipped_components == 1);
@@ -81,7 +81,7 @@ TEST_CASE("sign repair: a positive bubble inside the shape is flipped", "[sign_r
     const ScalarSdf bubble = sphere_sdf({0.05, 0, 0}, 0.12);
     const pcp::SdfBatchFn field = batch([&](const Eigen::Vector3d& p) { return std::max(sphere(p), -bubble(p)); });
     const pcp::PointsF points = sphere_points(6000, 0.4, Eigen::Vector3d::Zero(), 2);
-    const pcp::SignRepair repair(field, kBox, points, 0.0);
+    const pcp::SignRepair repair(field, kBox, pcp::KdTree(points));
     CHECK(repair.stats().flipped_components == 1);
     CHECK(value_at(field, repair, {0.05f, 0, 0}) < 0);
     const pcp::Mesh after = mesh_of(field, &repair);
@@ -93,7 +93,7 @@ TEST_CASE("sign repair: a positive bubble inside the shape is flipped", "[sign_r
 TEST_CASE("sign repair: a correct field, a hole it closes, and a second surface are left alone", "[sign_repair]") {
     SECTION("a correct sphere") {
         const pcp::SdfBatchFn field = batch(sphere_sdf({0, 0, 0}, 0.3));
-        const pcp::SignRepair repair(field, kBox, sphere_points(3000, 0.3, Eigen::Vector3d::Zero(), 3), 0.0);
+        const pcp::SignRepair repair(field, kBox, pcp::KdTree(sphere_points(3000, 0.3, Eigen::Vector3d::Zero(), 3)));
         CHECK(repair.stats().flipped_components == 0);
         CHECK(repair.stats().components >= 2);  // outside and inside
     }
@@ -106,7 +106,7 @@ TEST_CASE("sign repair: a correct field, a hole it closes, and a second surface 
         pcp::PointsF points(Eigen::Index(keep.size()), 3);
         for (std::size_t i = 0; i < keep.size(); ++i) points.row(Eigen::Index(i)) = all.row(keep[i]);
         REQUIRE(points.rows() < all.rows() * 0.95);
-        const pcp::SignRepair repair(field, kBox, points, 0.0);
+        const pcp::SignRepair repair(field, kBox, pcp::KdTree(points));
         CHECK(repair.stats().flipped_components == 0);
         CHECK(value_at(field, repair, {0, 0, 0}) < 0);
     }
@@ -115,7 +115,7 @@ TEST_CASE("sign repair: a correct field, a hole it closes, and a second surface 
         const pcp::SdfBatchFn field = batch([&](const Eigen::Vector3d& p) { return std::min(a(p), b(p)); });
         pcp::PointsF points(4000, 3);
         points << sphere_points(2500, 0.2, {-0.3, 0, 0}, 5), sphere_points(1500, 0.15, {0.3, 0, 0}, 6);
-        const pcp::SignRepair repair(field, kBox, points, 0.0);
+        const pcp::SignRepair repair(field, kBox, pcp::KdTree(points));
         CHECK(repair.stats().flipped_components == 0);
         CHECK(topology(mesh_of(field, &repair)).euler() == 4);
     }
@@ -124,7 +124,7 @@ TEST_CASE("sign repair: a correct field, a hole it closes, and a second surface 
         const pcp::SdfBatchFn field = batch([&](const Eigen::Vector3d& p) { return std::min(sphere(p), pocket(p)); });
         pcp::SignRepairOptions opts;
         opts.enabled = false;
-        const pcp::SignRepair repair(field, kBox, sphere_points(3000, 0.3, Eigen::Vector3d::Zero(), 7), 0.0, opts);
+        const pcp::SignRepair repair(field, kBox, pcp::KdTree(sphere_points(3000, 0.3, Eigen::Vector3d::Zero(), 7)), opts);
         CHECK(repair.stats().evaluations == 0);
         CHECK(value_at(field, repair, {0.44f, 0, 0}) < 0);
     }
@@ -146,13 +146,13 @@ TEST_CASE("sign repair: the parity vote flips a wrong region that reaches the bo
     for (std::size_t i = 0; i < keep.size(); ++i) points.row(Eigen::Index(i)) = all.row(keep[i]);
     REQUIRE(points.rows() < all.rows());
 
-    const pcp::SignRepair components(field, kBox, points, 0.0);
+    const pcp::SignRepair components(field, kBox, pcp::KdTree(points));
     CHECK(components.stats().parity_flipped == 0);
     CHECK(value_at(field, components, {0.1f, 0, 0}) > 0);  // still wrong
 
     pcp::SignRepairOptions opts;
     opts.parity_votes = 5;
-    const pcp::SignRepair parity(field, kBox, points, 0.0, opts);
+    const pcp::SignRepair parity(field, kBox, pcp::KdTree(points), opts);
     CHECK(parity.stats().parity_flipped > 0);
     CHECK(value_at(field, parity, {0.1f, 0, 0}) < 0);   // inside the tube, inside the sphere: fixed
     CHECK(value_at(field, parity, {0, 0.1f, 0}) < 0);   // the rest of the inside unchanged
@@ -166,17 +166,7 @@ TEST_CASE("sign repair: the parity vote flips a wrong region that reaches the bo
 
     // All six votes are required at 6: inside the tube only five rays cross the data.
     opts.parity_votes = 6;
-    CHECK(value_at(field, pcp::SignRepair(field, kBox, points, 0.0, opts), {0.1f, 0, 0}) > 0);
-}
-
-TEST_CASE("sign repair: iso other than zero mirrors about iso", "[sign_repair]") {
-    const ScalarSdf sphere = sphere_sdf({0, 0, 0}, 0.3), pocket = sphere_sdf({0.44, 0, 0}, 0.1);
-    const double iso = 0.01;
-    const pcp::SdfBatchFn field = batch([&](const Eigen::Vector3d& p) { return std::min(sphere(p), pocket(p)) + iso; });
-    const pcp::SignRepair repair(field, kBox, sphere_points(4000, 0.3, Eigen::Vector3d::Zero(), 8), iso);
-    REQUIRE(repair.stats().flipped_components == 1);
-    // field at the pocket's centre: -0.1 + iso; mirrored about iso: 0.1 + iso.
-    CHECK(value_at(field, repair, {0.44f, 0, 0}) == Approx(0.1 + iso).margin(1e-5));
+    CHECK(value_at(field, pcp::SignRepair(field, kBox, pcp::KdTree(points), opts), {0.1f, 0, 0}) > 0);
 }
 
 TEST_CASE("sign repair: bad options and inputs are errors", "[sign_repair]") {
@@ -184,23 +174,23 @@ TEST_CASE("sign repair: bad options and inputs are errors", "[sign_repair]") {
     const pcp::PointsF points = sphere_points(100, 0.3, Eigen::Vector3d::Zero(), 9);
     pcp::SignRepairOptions opts;
     opts.resolution = 1;
-    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, points, 0.0, opts), pcp::Error);
+    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, pcp::KdTree(points), opts), pcp::Error);
     opts.resolution = 257;
-    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, points, 0.0, opts), pcp::Error);
+    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, pcp::KdTree(points), opts), pcp::Error);
     opts = {};
     opts.max_unsupported = 1.0;
-    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, points, 0.0, opts), pcp::Error);
+    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, pcp::KdTree(points), opts), pcp::Error);
     opts = {};
     opts.parity_votes = 7;
-    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, points, 0.0, opts), pcp::Error);
+    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, pcp::KdTree(points), opts), pcp::Error);
     opts = {};
     opts.near_cells = -1;
-    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, points, 0.0, opts), pcp::Error);
-    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, points.topRows(1), 0.0), pcp::Error);
+    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, pcp::KdTree(points), opts), pcp::Error);
+    CHECK_THROWS_AS(pcp::SignRepair(field, kBox, pcp::KdTree(points.topRows(1))), pcp::Error);
     const pcp::SdfBatchFn nan = [](const Eigen::Ref<const pcp::PointsF>&, Eigen::Ref<Eigen::VectorXf> v) {
         v.setConstant(std::numeric_limits<float>::quiet_NaN());
     };
-    CHECK_THROWS_AS(pcp::SignRepair(nan, kBox, points, 0.0), pcp::Error);
+    CHECK_THROWS_AS(pcp::SignRepair(nan, kBox, pcp::KdTree(points)), pcp::Error);
     const pcp::SignRepair identity;
     Eigen::VectorXf v(2);
     CHECK_THROWS_AS(identity.apply(points.topRows(3), v), pcp::Error);

@@ -199,7 +199,7 @@ TEST_CASE("reconstruct: under bf16 the SDF grid runs in fp32 unless asked otherw
     o.fit.depth = 4;
     o.fit.queries_per_step = 200;
     o.fit.steps = 30;
-    o.fit.progress_every = 1 << 30;
+    o.fit.schedule.progress_every = 1 << 30;
     o.resolution = 32;
     const pcp::Points cloud = pcp::sample_sphere(1500, 0.4, Eigen::Vector3d::Zero(), 4).points;
     pcp::reconstruct(cloud, nullptr, o);  // warm-up: the training's primitives

@@ -4,6 +4,7 @@
 // input gradient, the parameter backward, the stage-1 double backprop of the full loss (decoder +
 // PointNet encoder), the stage-2 path into Q through a frozen F, and the pulling loss itself.
 // A planted bug (the tangent term dropped) must make the stage-1 check fail.
+#include "nn/planted_bug.hpp"
 #include "nn_reference.hpp"
 
 #include "pcp/core/error.hpp"
@@ -308,7 +309,13 @@ Stage1Result check_stage1(Stage1Case& c, bool drop_tangent) {
     const int N = int(c.q.cols()), M = int(c.points.cols());
     Stage1Workspace<double> ws(c.E.shape, c.F.shape, N, M);
     VectorXd dE(c.E.layout.size()), dF(c.F.layout.size());
-    const double L = ws.loss_and_grad(c.E, c.F, c.q, c.t, c.points, dE, dF, drop_tangent);
+    double L = 0;
+    if (drop_tangent) {
+        const pcp::nn::detail::PlantedTangentDrop planted;  // src/nn/planted_bug.hpp
+        L = ws.loss_and_grad(c.E, c.F, c.q, c.t, c.points, dE, dF);
+    } else {
+        L = ws.loss_and_grad(c.E, c.F, c.q, c.t, c.points, dE, dF);
+    }
     CHECK(std::abs(L - nnref::stage1_loss(c.E, c.F, c.q, c.t, c.points, nullptr)) < 1e-12);
     Stage1Result r;
     auto loss = [&](nnref::Kinks* k) { return nnref::stage1_loss(c.E, c.F, c.q, c.t, c.points, k); };

@@ -89,14 +89,6 @@ TEST_CASE("nn: learning-rate schedules and gradient clipping", "[nn]") {
     CHECK(cos.at(60) == Approx(0.5 * (1e-3 + 1e-5)));
     CHECK(cos.at(110) == Approx(1e-5));
     CHECK(cos.at(1000) == Approx(1e-5));
-    LrSchedule st;
-    st.kind = LrSchedule::Kind::Step;
-    st.lr = 1.0;
-    st.step_every = 100;
-    st.step_factor = 0.1;
-    CHECK(st.at(99) == Approx(1.0));
-    CHECK(st.at(100) == Approx(0.1));
-    CHECK(st.at(250) == Approx(0.01));
 
     Vec<float> g1(2), g2(1);
     g1 << 3.0f, 0.0f;

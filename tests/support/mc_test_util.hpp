@@ -1,7 +1,9 @@
-// Helpers shared by tests/test_marching_cubes.cpp and tests/test_sdf_grid.cpp: analytic signed
+// Helpers shared by tests/mesh/ (marching cubes, SDF grid, sign repair): analytic signed
 // distance functions (sphere, torus, a rotated box with sharp edges) wrapped as SdfBatchFn, and
 // mesh checks (edge manifoldness, orientation consistency, Euler characteristic, signed volume).
 #pragma once
+
+#include "pcp/mesh/mesh_check.hpp"
 
 #include "pcp/mesh/sdf_grid.hpp"
 #include "pcp/core/types.hpp"
@@ -59,45 +61,9 @@ inline pcp::GridSpec cube_grid(int resolution, double half = 0.6) {
     return spec;
 }
 
-struct MeshTopology {
-    std::int64_t V = 0, E = 0, F = 0;
-    std::int64_t edges_not_in_two_faces = 0;   // undirected edges used by != 2 faces
-    std::int64_t repeated_directed_edges = 0;  // directed edges used twice (inconsistent orientation)
-    std::int64_t degenerate_faces = 0;         // a face repeating a vertex index
-    std::int64_t unused_vertices = 0;
-    std::int64_t euler() const { return V - E + F; }
-    bool closed_manifold_oriented() const {
-        return edges_not_in_two_faces == 0 && repeated_directed_edges == 0 && degenerate_faces == 0 &&
-               unused_vertices == 0;
-    }
-};
-
-inline MeshTopology topology(const pcp::Mesh& mesh) {
-    MeshTopology t;
-    t.V = mesh.vertices.rows();
-    t.F = mesh.faces.rows();
-    std::map<std::pair<int, int>, int> directed;
-    std::vector<bool> used(std::size_t(t.V), false);
-    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
-        const int a = mesh.faces(f, 0), b = mesh.faces(f, 1), c = mesh.faces(f, 2);
-        if (a == b || b == c || a == c) ++t.degenerate_faces;
-        for (int v : {a, b, c}) used[std::size_t(v)] = true;
-        ++directed[{a, b}];
-        ++directed[{b, c}];
-        ++directed[{c, a}];
-    }
-    std::map<std::pair<int, int>, int> undirected;
-    for (const auto& [e, n] : directed) {
-        if (n > 1) ++t.repeated_directed_edges;
-        undirected[{std::min(e.first, e.second), std::max(e.first, e.second)}] += n;
-    }
-    t.E = std::int64_t(undirected.size());
-    for (const auto& [e, n] : undirected)
-        if (n != 2) ++t.edges_not_in_two_faces;
-    for (bool u : used)
-        if (!u) ++t.unused_vertices;
-    return t;
-}
+// The topology counts are the library's own (pcp/mesh/mesh_check.hpp).
+using pcp::MeshTopology;
+inline MeshTopology topology(const pcp::Mesh& mesh) { return pcp::mesh_topology(mesh); }
 
 /// Volume enclosed by a closed mesh, positive when its faces are counter-clockwise seen from outside.
 inline double signed_volume(const pcp::Mesh& mesh) {

@@ -36,9 +36,9 @@ const pcp::LocalPrior& toy_prior() {
         o.sampling.queries_per_point = 10;
         o.queries_per_step = 200;
         o.epochs = 30;
-        o.warmup_steps = 10;
-        o.progress_every = 1 << 30;
-        o.seed = 3;
+        o.schedule.warmup_steps = 10;
+        o.schedule.progress_every = 1 << 30;
+        o.schedule.seed = 3;
         return pcp::train_prior({pcp::TrainingCloud{"sphere", pcp::sample_sphere(1500, 0.4, Eigen::Vector3d::Zero(), 1).points}}, o);
     }();
     return prior;
@@ -51,21 +51,21 @@ pcp::QueryFitOptions toy_fit(QueryAblation mode, std::int64_t steps) {
     o.depth = 4;
     o.queries_per_step = 200;
     o.steps = steps;
-    o.learning_rate = 1e-3;
+    o.schedule.learning_rate = 1e-3;
     o.sampling.queries_per_point = 10;
-    o.progress_every = 1 << 30;
-    o.seed = 5;
+    o.schedule.progress_every = 1 << 30;
+    o.schedule.seed = 5;
     return o;
 }
 
-const pcp::Points& torus() {
-    static const pcp::Points p = pcp::sample_torus(1500, 0.3, 0.12, 2).points;
-    return p;
+const pcp::PreparedCloud& torus() {
+    static const pcp::PreparedCloud cloud(pcp::sample_torus(1500, 0.3, 0.12, 2).points, "torus", 1);
+    return cloud;
 }
 
 double mean_abs_sdf(const pcp::QueryNetFitter& fitter) {
-    Eigen::VectorXf v(fitter.unit_points().rows());
-    fitter.sdf(fitter.unit_points(), v);
+    Eigen::VectorXf v(fitter.cloud().size());
+    fitter.sdf(fitter.cloud().unit(), v);
     return static_cast<double>(v.cwiseAbs().mean());
 }
 
@@ -127,18 +127,18 @@ TEST_CASE("ablation: resume restores the trained F and the free code (weights id
         resumed.resume(ckpt);
         CHECK(resumed.steps_done() == 20);
         for (int s = 0; s < 20; ++s) resumed.step();
-        Eigen::VectorXf a(torus().rows()), b(torus().rows());
-        straight.sdf(straight.unit_points(), a);
-        resumed.sdf(resumed.unit_points(), b);
+        Eigen::VectorXf a(torus().size()), b(torus().size());
+        straight.sdf(straight.cloud().unit(), a);
+        resumed.sdf(resumed.cloud().unit(), b);
         CHECK((a - b).cwiseAbs().maxCoeff() == 0.0f);
         // Without the checkpoint the trained state differs (the check above can fail).
         pcp::QueryNetFitter fresh(torus(), toy_prior(), toy_fit(mode, 40));
         for (int s = 0; s < 20; ++s) fresh.step();
-        fresh.sdf(fresh.unit_points(), b);
+        fresh.sdf(fresh.cloud().unit(), b);
         CHECK((a - b).cwiseAbs().maxCoeff() > 0.0f);
         // The mode is part of the fingerprint.
         pcp::QueryNetFitter other(torus(), toy_prior(), toy_fit(QueryAblation::None, 40));
-        CHECK_THROWS_WITH(other.resume(ckpt), Catch::Contains("another input, prior or settings"));
+        CHECK_THROWS_WITH(other.resume(ckpt), Catch::Contains("other inputs or settings"));
     }
 }
 

@@ -27,8 +27,8 @@ pcp::PriorTrainOptions tiny_options() {
     o.queries_per_step = 200;
     o.regions.grid = 2;
     o.max_steps = 30;
-    o.learning_rate = 1e-3;
-    o.progress_every = 5;
+    o.schedule.learning_rate = 1e-3;
+    o.schedule.progress_every = 5;
     return o;
 }
 
@@ -106,26 +106,47 @@ TEST_CASE("prior: an interrupted run resumed from its checkpoint ends with ident
         REQUIRE(whole.run());
 
         pcp::PriorTrainOptions interrupted = o;
-        interrupted.checkpoint_path = (dir / "run.ckpt").string();
-        interrupted.checkpoint_every = 1000;  // only the checkpoint written when stopped
-        interrupted.progress = [](const pcp::Progress& p) { return p.step < 15; };
+        interrupted.schedule.checkpoint_path = (dir / "run.ckpt").string();
+        interrupted.schedule.checkpoint_every = 1000;  // only the checkpoint written when stopped
+        interrupted.schedule.progress = [](const pcp::Progress& p) { return p.step < 15; };
         pcp::PriorTrainer first(tiny_clouds(), interrupted);
         REQUIRE_FALSE(first.run());
         REQUIRE(first.steps_done() == 15);
-        REQUIRE(fs::exists(interrupted.checkpoint_path));
+        const std::string ckpt = interrupted.schedule.checkpoint_path;
+        REQUIRE(fs::exists(ckpt));
 
         pcp::PriorTrainer second(tiny_clouds(), o);
-        second.resume(interrupted.checkpoint_path);
+        second.resume(ckpt);
         CHECK(second.steps_done() == 15);
         REQUIRE(second.run());
         CHECK(second.prior().decoder().params == whole.prior().decoder().params);
         CHECK(second.prior().encoder().params == whole.prior().encoder().params);
 
+        // The same through the schedule's resume flag: run() continues at step 15.
+        pcp::PriorTrainOptions again = o;
+        again.schedule.checkpoint_path = ckpt;
+        again.schedule.resume = true;
+        std::int64_t first_reported = -1;
+        again.schedule.progress = [&](const pcp::Progress& p) {
+            if (first_reported < 0) first_reported = p.step;
+            return true;
+        };
+        pcp::PriorTrainer flagged(tiny_clouds(), again);
+        REQUIRE(flagged.run());
+        CHECK(first_reported == 15);
+        CHECK(flagged.prior().decoder().params == whole.prior().decoder().params);
+        // With the flag but no checkpoint file, the run starts at step 0.
+        again.schedule.checkpoint_path = (dir / "absent.ckpt").string();
+        first_reported = -1;
+        pcp::PriorTrainer fresh(tiny_clouds(), again);
+        REQUIRE(fresh.run());
+        CHECK(first_reported == 0);
+
         // A checkpoint of other settings is refused.
         pcp::PriorTrainOptions other = o;
-        other.learning_rate = 2e-3;
+        other.schedule.learning_rate = 2e-3;
         pcp::PriorTrainer third(tiny_clouds(), other);
-        CHECK_THROWS_WITH(third.resume(interrupted.checkpoint_path), Catch::Contains("other inputs or settings"));
+        CHECK_THROWS_WITH(third.resume(ckpt), Catch::Contains("other inputs or settings"));
     });
 }
 

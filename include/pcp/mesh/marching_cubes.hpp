@@ -15,7 +15,7 @@ namespace pcp {
 /// How a face whose diagonal corners share a sign (an ambiguous face) is cut. Both rules look only
 /// at the face's own four values, so the two cubes sharing it agree and the mesh stays watertight.
 enum class McAmbiguity {
-    AsymptoticDecider,  ///< join the inside corners when the bilinear saddle is inside (< iso); a cube
+    AsymptoticDecider,  ///< join the inside corners when the bilinear saddle is inside (< 0); a cube
                         ///< with a joined face may need a centre vertex (none on the smooth test shapes;
                         ///< 1.6 % of the vertices on a white-noise field)
     SeparateInside,     ///< always separate the inside corners (a fixed sign convention): never a
@@ -23,12 +23,12 @@ enum class McAmbiguity {
 };
 
 struct MarchingCubesOptions {
-    double iso = 0.0;  ///< level to extract; should equal the SdfGridOptions::iso the band was built for
     McAmbiguity ambiguity = McAmbiguity::AsymptoticDecider;
 };
 
-/// Extracts the level set `options.iso` from the stored blocks of `grid` (OpenMP over blocks).
-/// A sample is inside when its value < iso. Vertices lie on grid edges, placed by linear
+/// Extracts the zero level set from the stored blocks of `grid` (OpenMP over blocks); for another
+/// level, evaluate the field minus that level (pcp::reconstruct does, ReconstructOptions::iso).
+/// A sample is inside when its value < 0. Vertices lie on grid edges, placed by linear
 /// interpolation (plus the rare polygon centres, the mean of their polygon's vertices, listed
 /// last), and are ordered by their grid edge (so the result does not depend on the
 /// thread count or on which blocks were stored, as long as the cubes crossed are).

@@ -48,14 +48,13 @@ GridSpec make_grid_spec(const Aabb& bbox, int resolution, double margin = 0.05);
 /// Which blocks are evaluated.
 enum class NarrowBand {
     Dense,       ///< every block (the reference; resolution^3 memory)
-    Coarse,      ///< coarse-to-fine: octree of blocks, a node is refined when |sdf(centre) - iso| <=
+    Coarse,      ///< coarse-to-fine: octree of blocks, a node is refined when |sdf(centre)| <=
                  ///< coarse_factor * its half-diagonal
     NearPoints,  ///< the blocks within point_band_cells cells of the band points
 };
 
 struct SdfGridOptions {
     NarrowBand band = NarrowBand::Coarse;
-    double iso = 0.0;              ///< the level the band is built around (pass the same to marching_cubes)
     int block_cells = 8;           ///< cells per block edge (2..64); a block stores (block_cells + 1)^3 floats
     double coarse_factor = 2.0;    ///< Coarse: safety factor on the half-diagonal (1 is exact for a true
                                    ///< distance; larger for an SDF that is only roughly a distance)
@@ -84,7 +83,6 @@ struct SdfGrid {
     GridSpec spec;
     int block_cells = 8;                   ///< B
     int blocks_per_axis = 0;               ///< ceil(resolution / B)
-    double iso = 0.0;                      ///< the level the band was built around
     std::vector<std::int64_t> block_keys;  ///< K stored blocks, sorted: (bz * nb + by) * nb + bx
     std::vector<float> values;             ///< K * (B + 1)^3 samples, block after block
     SdfGridStats stats;

@@ -18,10 +18,11 @@
 //     merges with its neighbours), smallest first, never a component that touches the grid's box.
 //     A hole in the data that the field closes by itself is left alone: there the component's
 //     boundary is mostly near samples.
-//  4. apply() negates (mirrors about iso) a value of the field wherever the coarse cell around its
+//  4. apply() negates a value of the field wherever the coarse cell around its
 //     point has flipped corners of the value's own sign; |F| is unchanged everywhere.
 #pragma once
 
+#include "pcp/cloud/kdtree.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 #include "pcp/core/types.hpp"
 
@@ -63,20 +64,18 @@ public:
     /// Evaluates `field` on a coarse grid over `box` and decides which regions to flip.
     /// @param field   the fitted field (thread-safe batches, as for evaluate_sdf_grid)
     /// @param box     the box of the fine grid (unit-box coordinates)
-    /// @param points  the input cloud, N x 3, same frame, N >= 2
-    /// @param iso     the level whose crossings are repaired
+    /// @param cloud   a tree over the input cloud (its points: N x 3, same frame, N >= 2)
+    /// The zero level set is repaired (pass the field minus the level for another one).
     /// Throws pcp::Error on bad options or a non-finite field value.
-    SignRepair(const SdfBatchFn& field, const Aabb& box, const Eigen::Ref<const PointsF>& points, double iso,
-               const SignRepairOptions& options = {});
+    SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& cloud, const SignRepairOptions& options = {});
 
-    /// values(i) = field at points.row(i), corrected in place (mirrored about iso where flipped).
+    /// values(i) = field at points.row(i), corrected in place (negated where flipped).
     void apply(const Eigen::Ref<const PointsF>& points, Eigen::Ref<Eigen::VectorXf> values) const;
 
     const SignRepairStats& stats() const { return stats_; }
 
 private:
     GridSpec spec_;
-    float iso_ = 0;
     /// Per coarse sample: 0 near the data, +-1 kept with that sign, +-2 flipped (original sign +-);
     /// empty when nothing is flipped.
     std::vector<std::int8_t> state_;

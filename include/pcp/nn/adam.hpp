@@ -1,6 +1,5 @@
 // Optimisation of a flat parameter vector: Adam with bias correction (one loop over the vector),
-// learning-rate schedules (constant, cosine with linear warm-up, step decay, all with optional
-// linear warm-up) and gradient-norm clipping over several gradient vectors at once.
+// learning-rate schedules (constant, cosine; both with optional linear warm-up) and gradient-norm clipping over several gradient vectors at once.
 #pragma once
 
 #include "pcp/nn/common.hpp"
@@ -36,14 +35,12 @@ void adam_step(VecRef<S> params, const CVecRef<S>& grads, AdamState<S>& state, d
 
 /// Learning rate as a function of the step (0-based).
 struct LrSchedule {
-    enum class Kind { Constant, Cosine, Step };
+    enum class Kind { Constant, Cosine };
     Kind kind = Kind::Constant;
     double lr = 1e-4;                ///< base (peak) rate
     std::int64_t warmup_steps = 0;   ///< linear warm-up from lr/warmup_steps to lr
     std::int64_t total_steps = 0;    ///< Cosine: decays from lr to final_lr over these steps
     double final_lr = 0.0;           ///< Cosine: rate at total_steps and after
-    std::int64_t step_every = 1000;  ///< Step: multiply by step_factor every step_every steps
-    double step_factor = 0.5;
 
     double at(std::int64_t step) const;
 };

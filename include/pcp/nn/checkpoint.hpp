@@ -1,6 +1,6 @@
 // The versioned binary file format for networks and training state (".pcpn"). One file holds any
 // number of named networks (BranchMlp or PointNet), each with its flat parameters and, optionally,
-// its Adam moments and step count, plus the trainer's step and RNG state. Files are written with
+// its Adam moments and step count, plus the trainer's step. Files are written with
 // pcp::write_file_atomically; loading rejects truncated files, bad checksums, foreign files (bad
 // magic) and other format versions with a pcp::Error that names the file and the problem.
 //
@@ -10,7 +10,8 @@
 //   scalar bytes u32      4 (float) or 8 (double): how the parameter blocks are stored
 //   payload size u64      bytes between this field and the checksum
 //   payload:
-//     step u64, rng state 4 x u64, metadata (u64 length + bytes), network count u32, then per network:
+//     step u64, reserved 4 x u64 (zero; an RNG state slot no trainer needs: every draw is
+//     derived from the seed and the step), metadata (u64 length + bytes), network count u32, then per network:
 //       name (u32 length + bytes), kind u32 (1 BranchMlp, 2 PointNet),
 //       shape (u32 count + i32 values), parameter count u64, Adam step i64, has-Adam u8,
 //       parameters, [Adam m, Adam v]   (scalars of the stored size)
@@ -47,8 +48,7 @@ struct NetRecord {
 template <class S>
 struct NetFile {
     std::uint64_t step = 0;
-    Rng::State rng{{1, 0, 0, 0}};
-    std::string metadata;  ///< free text for the caller (e.g. a prior's settings and provenance)
+    std::string metadata;  ///< key=value lines (nn/metadata.hpp): a prior's settings, a checkpoint's fingerprint
     std::vector<NetRecord<S>> nets;
 
     /// The record called `name`; throws pcp::Error naming the missing network.

@@ -211,13 +211,11 @@ void branch_mlp_backward(const BranchMlp<S>& net, BranchMlpCache<S>& cache, cons
 /// @param[out] dL_df      size C: sum_i lambda_i g_f^(i) (the encoder's or a shared code's
 ///                        gradient); size C x N (per-query layout only, column-major):
 ///                        lambda_i g_f^(i) per column; size 0: not computed.
-/// @param[in]  test_drop_tangent  TEST ONLY: drop the tangent terms (u, v) from the weight
-///             gradients, a planted bug that the gradient checker must reject.
 template <class S>
 void decoder_double_backward(const BranchMlp<S>& net, BranchMlpCache<S>& cache,
                              const CMatRef<S>& q, const CMatRef<S>& f, const CVecRef<S>& dL_ds,
                              const CMatRef<S>& dL_dg, VecRef<S> dL_dtheta, VecRef<S> dL_df,
-                             GradMode mode, bool test_drop_tangent = false);
+                             GradMode mode);
 
 /// dL/df = sum_i lambda_i g_f^(i) (C) for a condition column shared by the batch (F frozen, e.g.
 /// an auto-decoded code), after branch_mlp_forward (shared f) and decoder_input_grad (either

@@ -41,11 +41,10 @@ struct Stage1Workspace {
     /// @param[in]  points   3 x M the encoder's input (the paper: the targets of the region's queries).
     /// @param[out] dL_dE    encoder.layout.size().
     /// @param[out] dL_dF    decoder.layout.size().
-    /// @param[in]  test_drop_tangent  TEST ONLY (planted bug, see decoder_double_backward).
     /// @return L = mean |p - t|.
     double loss_and_grad(const PointNet<S>& encoder, const BranchMlp<S>& decoder,
                          const CMatRef<S>& q, const CMatRef<S>& t, const CMatRef<S>& points,
-                         VecRef<S> dL_dE, VecRef<S> dL_dF, bool test_drop_tangent = false);
+                         VecRef<S> dL_dE, VecRef<S> dL_dF);
 
     /// The loss only (forward + input-gradient sweep).
     double loss(const PointNet<S>& encoder, const BranchMlp<S>& decoder, const CMatRef<S>& q,

@@ -9,10 +9,11 @@
 // resumed from a checkpoint ends with exactly the weights of an uninterrupted run (one thread).
 #pragma once
 
-#include "pcp/core/progress.hpp"
+#include "pcp/cloud/prepared_cloud.hpp"
 #include "pcp/cloud/regions.hpp"
 #include "pcp/cloud/sampling.hpp"
 #include "pcp/core/types.hpp"
+#include "pcp/train/schedule.hpp"
 
 #include <cstdint>
 #include <memory>
@@ -37,8 +38,6 @@ struct PriorNetworkOptions {
     int pointnet_hidden = 512; ///< PointNet head's hidden width (1024 -> 512 -> C)
 };
 
-enum class LrScheduleKind { Constant, Cosine };
-
 struct PriorTrainOptions {
     RegionOptions regions;           ///< grid 6, normalisation both (paper)
     SamplingOptions sampling;        ///< 40 queries per point at 0.5 sigma_p (paper / release)
@@ -46,15 +45,8 @@ struct PriorTrainOptions {
     int queries_per_step = 2000;     ///< queries of one region per step (paper: 2000)
     int epochs = 500;                ///< passes over all regions, one step per region (release: 500)
     std::int64_t max_steps = 0;      ///< if > 0, stop after this many steps instead
-    double learning_rate = 1e-4;     ///< Adam (release: 1e-4)
-    LrScheduleKind schedule = LrScheduleKind::Constant;
-    std::int64_t warmup_steps = 0;   ///< linear warm-up (cosine schedule)
-    double clip_norm = 0.0;          ///< gradient-norm clipping; 0 = off
-    std::uint64_t seed = 1;
-    std::int64_t progress_every = 50;       ///< steps between progress callbacks
-    std::string checkpoint_path;            ///< "" = no checkpoints
-    std::int64_t checkpoint_every = 1000;   ///< steps between checkpoints
-    ProgressCallback progress;              ///< stage "prior"; return false to stop (a checkpoint is written)
+    /// Adam (release: lr 1e-4, constant), seed, progress (stage "prior"), checkpoints, resume.
+    TrainingSchedule schedule = TrainingSchedule::every(50, 1000);
 
     /// Named presets: "paper" (the paper's sizes and schedule), "default", "fast" (the self-prior
     /// preset used by pcp_reconstruct when no prior is given). Throws pcp::Error for other names.
@@ -104,7 +96,7 @@ private:
     std::unique_ptr<Nets> nets_;
 };
 
-/// Writes `prior` atomically to `path` (format: see src/prior_io.cpp).
+/// Writes `prior` atomically to `path` (format: see src/train/prior_io.cpp).
 void save_prior(const std::string& path, const LocalPrior& prior);
 /// Reads a prior; a file of another format version, a truncated or corrupt file is refused with a
 /// pcp::Error naming the file and the problem.
@@ -122,6 +114,8 @@ public:
     /// Prepares the regions and query pools of every cloud (throws pcp::Error, naming the cloud,
     /// for degenerate clouds; and if no region has options.regions.min_points points).
     PriorTrainer(const std::vector<TrainingCloud>& clouds, const PriorTrainOptions& options);
+    /// One cloud already prepared (pcp::reconstruct's self-prior): not checked or normalised again.
+    PriorTrainer(const PreparedCloud& cloud, const PriorTrainOptions& options);
     ~PriorTrainer();
 
     /// Restores weights, Adam state and the step counter from a checkpoint written by this trainer
@@ -130,7 +124,8 @@ public:
     /// Writes the training state atomically.
     void checkpoint(const std::string& path) const;
 
-    /// Runs steps until the planned total or until the progress callback returns false.
+    /// Runs steps until the planned total or until the progress callback returns false; first
+    /// continues from the checkpoint when options.schedule.resume is set and the file exists.
     /// @return true when all steps are done, false when stopped early.
     bool run();
     /// One step; returns its loss.

@@ -1,0 +1,49 @@
+// The named presets of the pipeline (see ReconstructOptions::preset in pcp/reconstruct.hpp): each
+// value chosen by a measurement recorded in docs/BENCHMARKS.md.
+#include "pcp/core/error.hpp"
+#include "pcp/reconstruct.hpp"
+
+namespace pcp {
+
+ReconstructOptions ReconstructOptions::preset(const std::string& name) {
+    ReconstructOptions o;
+    if (name == "paper") {
+        o.self_prior = PriorTrainOptions::preset("paper");
+        return o;
+    }
+    if (name == "default") {
+        // The fast preset's self-prior and query-network schedule, with a query network twice as
+        // wide, twice the steps and the paper's 128 cells. Measured against fast (L2-CD x 100 / NC):
+        // abc_00010098 0.055 / 0.678 -> 0.045 / 0.699 (Poisson 0.051 / 0.634), abc_00016513 0.045 /
+        // 0.795 -> 0.050 / 0.858, at about 3 x the time; the earlier default (self-prior width 256,
+        // 40 epochs; 6000 steps) took 19 min on the bunny for 0.091 against fast's 0.108
+        // (docs/BENCHMARKS.md).
+        o = preset("fast");
+        o.fit.width = 256;
+        o.fit.steps = 3000;
+        o.resolution = 128;
+        return o;
+    }
+    if (name == "fast") {
+        o.self_prior = PriorTrainOptions::preset("fast");
+        o.fit.width = 128;
+        o.fit.depth = 6;
+        o.fit.queries_per_step = 2000;
+        o.fit.steps = 1500;
+        o.fit.schedule.learning_rate = 1e-3;
+        o.fit.schedule.lr_schedule = LrScheduleKind::Cosine;
+        o.fit.schedule.warmup_steps = 100;
+        // 10 % uniform queries (not in the paper): L2-CD x 100 on the bunny 0.449 -> 0.108,
+        // abc_00010074 0.068 -> 0.032 (docs/BENCHMARKS.md).
+        o.fit.sampling.uniform_fraction = 0.1f;
+        // Denoise noisy clouds (pcp::noise_ratio > 0.25; not in the paper): 3 passes, L2-CD x 100 /
+        // NC on abc_00010039 0.067 / 0.589 -> 0.035 / 0.642, abc_00010045 0.41 / 0.66 -> 0.054 /
+        // 0.75, noisy bunny 0.028 / 0.75 -> 0.013 / 0.90 (docs/BENCHMARKS.md).
+        o.denoise.automatic = true;
+        o.resolution = 96;
+        return o;
+    }
+    PCP_FAIL("unknown reconstruction preset '" << name << "' (use paper, default or fast)");
+}
+
+}  // namespace pcp
