@@ -1,12 +1,14 @@
 # Optional BLAS back end of pcp::nn::gemm (OpenBLAS). PCP_BLAS=AUTO uses it when OpenBLAS's CMake
-# config is found, ON requires it, OFF never uses it. Only src/nn/gemm.cpp sees it: the define
-# PCP_WITH_BLAS and OpenBLAS's include directory are set on that one source file (no
-# EIGEN_USE_BLAS anywhere), and the library links pcp::openblas privately (exported as link-only;
-# the installed pcpConfig.cmake finds OpenBLAS again). Sets PCP_WITH_BLAS (ON/OFF).
+# config is found, ON requires it, OFF never uses it. When found, the back end's own source file
+# (src/nn/gemm_blas.cpp, the only file that includes cblas.h) is added to the library with
+# OpenBLAS's include directory on it, and the dispatcher src/nn/gemm.cpp gets the define
+# PCP_WITH_BLAS (no EIGEN_USE_BLAS anywhere); when not found, that file is not compiled at all.
+# The library links pcp::openblas privately (exported as link-only; the installed
+# pcpConfig.cmake finds OpenBLAS again). Sets PCP_WITH_BLAS (ON/OFF).
 set(PCP_BLAS AUTO CACHE STRING "OpenBLAS back end for nn::gemm: AUTO (when found), ON (required), OFF")
 set_property(CACHE PCP_BLAS PROPERTY STRINGS AUTO ON OFF)
 
-function(pcp_setup_blas target gemm_source)
+function(pcp_setup_blas target dispatcher_source backend_source)
   set(PCP_WITH_BLAS OFF PARENT_SCOPE)
   if(PCP_BLAS STREQUAL "OFF")
     message(STATUS "pcp: nn::gemm back ends: eigen (PCP_BLAS=OFF)")
@@ -23,9 +25,9 @@ function(pcp_setup_blas target gemm_source)
     return()
   endif()
   include(pcpOpenBLASTarget)
-  set_source_files_properties("${gemm_source}" PROPERTIES
-    COMPILE_DEFINITIONS PCP_WITH_BLAS=1
-    INCLUDE_DIRECTORIES "${OpenBLAS_INCLUDE_DIRS}")
+  target_sources(${target} PRIVATE "${backend_source}")
+  set_property(SOURCE "${backend_source}" APPEND PROPERTY INCLUDE_DIRECTORIES "${OpenBLAS_INCLUDE_DIRS}")
+  set_property(SOURCE "${dispatcher_source}" APPEND PROPERTY COMPILE_DEFINITIONS PCP_WITH_BLAS=1)
   target_link_libraries(${target} PRIVATE pcp::openblas)
   message(STATUS "pcp: nn::gemm back ends: eigen, blas (OpenBLAS ${OpenBLAS_VERSION}: ${OpenBLAS_LIBRARIES})")
   set(PCP_WITH_BLAS ON PARENT_SCOPE)

@@ -2,13 +2,15 @@
 # PCP_DNNL=AUTO uses it when oneDNN (Debian libdnnl-dev) is found, ON requires it, OFF never uses
 # it. Found by header and library, not by oneDNN's CMake package: Debian's dnnl-config.cmake
 # requires OpenCL and fails the whole configuration without it, even when asked QUIET. Like the
-# BLAS back end, only src/nn/gemm.cpp sees it (define PCP_WITH_DNNL, oneDNN's include directory)
-# and the static library links pcp::dnnl privately (exported link-only; the installed
+# BLAS back end: when found, the back end's own source file (src/nn/gemm_dnnl.cpp, the only file
+# that includes oneDNN) is added to the library with oneDNN's include directory on it, and the
+# dispatcher src/nn/gemm.cpp gets the define PCP_WITH_DNNL; when not found, that file is not
+# compiled at all. The static library links pcp::dnnl privately (exported link-only; the installed
 # pcpConfig.cmake finds the library again). Sets PCP_WITH_DNNL (ON/OFF) and PCP_DNNL_LIBRARY.
 set(PCP_DNNL AUTO CACHE STRING "oneDNN bf16 back end for nn::gemm: AUTO (when found), ON (required), OFF")
 set_property(CACHE PCP_DNNL PROPERTY STRINGS AUTO ON OFF)
 
-function(pcp_setup_dnnl target gemm_source)
+function(pcp_setup_dnnl target dispatcher_source backend_source)
   set(PCP_WITH_DNNL OFF PARENT_SCOPE)
   if(PCP_DNNL STREQUAL "OFF")
     message(STATUS "pcp: bf16 precision: no (PCP_DNNL=OFF)")
@@ -26,11 +28,12 @@ function(pcp_setup_dnnl target gemm_source)
     return()
   endif()
   include(pcpDnnlTarget)
-  set_property(SOURCE "${gemm_source}" APPEND PROPERTY COMPILE_DEFINITIONS PCP_WITH_DNNL=1)
+  target_sources(${target} PRIVATE "${backend_source}")
   # Not for a compiler's own directory (/usr/include): naming it again breaks #include_next.
   if(NOT PCP_DNNL_INCLUDE_DIR IN_LIST CMAKE_CXX_IMPLICIT_INCLUDE_DIRECTORIES)
-    set_property(SOURCE "${gemm_source}" APPEND PROPERTY INCLUDE_DIRECTORIES "${PCP_DNNL_INCLUDE_DIR}")
+    set_property(SOURCE "${backend_source}" APPEND PROPERTY INCLUDE_DIRECTORIES "${PCP_DNNL_INCLUDE_DIR}")
   endif()
+  set_property(SOURCE "${dispatcher_source}" APPEND PROPERTY COMPILE_DEFINITIONS PCP_WITH_DNNL=1)
   target_link_libraries(${target} PRIVATE pcp::dnnl)
   message(STATUS "pcp: bf16 precision: oneDNN (${PCP_DNNL_LIBRARY}), used where the CPU has AVX512-BF16 or AMX")
   set(PCP_WITH_DNNL ON PARENT_SCOPE)

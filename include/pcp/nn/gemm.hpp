@@ -1,6 +1,7 @@
 // The one place where the neural core multiplies matrices. Every layer, forward or backward,
-// calls pcp::nn::gemm; nothing else in src/nn/ writes `A * B`. Two back ends live behind it, in
-// src/nn/gemm.cpp only:
+// calls pcp::nn::gemm; nothing else in src/nn/ writes `A * B`. Two back ends live behind it, each
+// in its own file behind the dispatcher src/nn/gemm.cpp (src/nn/gemm_eigen.cpp, src/nn/gemm_blas.cpp;
+// the bf16 products below in src/nn/gemm_dnnl.cpp):
 //   - Eigen (always built, the portable path): Eigen 3.4's packed GEMM kernel driven by our own
 //     code, with packing buffers that persist per thread (grown once to the largest shape, then
 //     reused), so that a training step allocates nothing; multi-threaded over OpenMP by splitting
