@@ -172,11 +172,7 @@ TEST_CASE("nn: stage 2 fits a torus through a frozen sphere-trained F", "[nn]") 
     CHECK(last < 0.3 * first);
 }
 
-TEST_CASE("nn: in bf16, stage 2 fits the torus as well as in fp32", "[nn]") {
-    if (!bf16_available()) {
-        WARN("skipped: " << bf16_unavailable_reason());
-        return;
-    }
+TEST_CASE("nn: in bf16, stage 2 fits the torus as well as in fp32", "[nn][bf16]") {
     pcp::test::RestoreGemmSettings restore;
     set_gemm_precision(Precision::Fp32);
     const auto [first32, last32] = fit_torus();
@@ -191,19 +187,12 @@ TEST_CASE("nn: in bf16, stage 2 fits the torus as well as in fp32", "[nn]") {
 namespace {
 
 using pcp::test::RestoreGemmSettings;
-const auto backends = pcp::test::gemm_backends;
 
-// fp32, and bf16 where this build and CPU have it (the oneDNN products' primitives and bf16
-// copies are created once per thread and shape, then reused).
-std::vector<Precision> precisions() {
-    std::vector<Precision> p{Precision::Fp32};
-    if (bf16_available()) p.push_back(Precision::Bf16);
-    return p;
-}
-
-}  // namespace
-
-TEST_CASE("nn: no heap allocation inside a training step after the first", "[nn]") {
+// One step of each stage, and a batch evaluation, after a warm-up allocate nothing on the given
+// back end and precision, on 1 and 2 threads (width 32). In bf16 the oneDNN products' primitives
+// and bf16 copies are created once per thread and shape, then reused; oneDNN's execute itself
+// allocates its context, so there the check is that nothing is created after the warm-up.
+void check_step_allocations(GemmBackend backend, Precision precision) {
     RestoreGemmSettings restore;
     Rng rng(33, 0);
     PointNet<float> E(pointnet_shape(kC, 64, 32));
@@ -223,50 +212,70 @@ TEST_CASE("nn: no heap allocation inside a training step after the first", "[nn]
     Stage1Trainer<float> s1(E, F, N, N, o);
     Stage2Trainer<float> s2(Q, F, N, o);
     GlobalSdfCache<float> eval(Q.shape, F.shape, N);
-    for (const Precision precision : precisions())
-    for (GemmBackend backend : backends())
-        for (int threads : {1, 2}) {
-            set_gemm_precision(precision);
-            set_gemm_backend(backend);
-            Eigen::setNbThreads(threads);
-            s1.step(q, t, pts);  // first steps may allocate (the GEMM's per-thread buffers)
-            s2.step(q, t, codes);
-            global_sdf_eval<float>(s2.query_net, s2.decoder, q, codes, eval);
-            if (precision == Precision::Bf16) s1.step(q.leftCols(N / 2), t.leftCols(N / 2), pts.leftCols(N / 3));
-            const long created = bf16_primitives_created();
-            long n1, n2, n3, n_smaller;
-            {
-                CountAllocations count;
-                for (int i = 0; i < 3; ++i) s1.step(q, t, pts);
-                n1 = count.count();
-            }
-            {
-                CountAllocations count;
-                for (int i = 0; i < 3; ++i) s2.step(q, t, codes);
-                n2 = count.count();
-            }
-            {
-                CountAllocations count;
-                global_sdf_eval<float>(s2.query_net, s2.decoder, q, codes, eval);
-                n3 = count.count();
-            }
-            {  // a smaller batch reuses the same buffers
-                CountAllocations count;
-                s1.step(q.leftCols(N / 2), t.leftCols(N / 2), pts.leftCols(N / 3));
-                n_smaller = count.count();
-            }
-            INFO("gemm back end " << gemm_backend_name(backend) << ", " << threads << " thread(s), "
-                                  << precision_name(precision));
-            if (precision == Precision::Fp32) {
-                CHECK(n1 == 0);
-                CHECK(n2 == 0);
-                CHECK(n3 == 0);
-                CHECK(n_smaller == 0);
-            } else {  // oneDNN's execute allocates its context; nothing is created after warm-up
-                CHECK(bf16_primitives_created() == created);
-            }
+    set_gemm_precision(precision);
+    set_gemm_backend(backend);
+    for (int threads : {1, 2}) {
+        Eigen::setNbThreads(threads);
+        s1.step(q, t, pts);  // first steps may allocate (the GEMM's per-thread buffers)
+        s2.step(q, t, codes);
+        global_sdf_eval<float>(s2.query_net, s2.decoder, q, codes, eval);
+        if (precision == Precision::Bf16) s1.step(q.leftCols(N / 2), t.leftCols(N / 2), pts.leftCols(N / 3));
+        const long created = bf16_primitives_created();
+        long n1, n2, n3, n_smaller;
+        {
+            CountAllocations count;
+            for (int i = 0; i < 3; ++i) s1.step(q, t, pts);
+            n1 = count.count();
         }
-    // The counter itself works: a fresh matrix is seen.
+        {
+            CountAllocations count;
+            for (int i = 0; i < 3; ++i) s2.step(q, t, codes);
+            n2 = count.count();
+        }
+        {
+            CountAllocations count;
+            global_sdf_eval<float>(s2.query_net, s2.decoder, q, codes, eval);
+            n3 = count.count();
+        }
+        {  // a smaller batch reuses the same buffers
+            CountAllocations count;
+            s1.step(q.leftCols(N / 2), t.leftCols(N / 2), pts.leftCols(N / 3));
+            n_smaller = count.count();
+        }
+        INFO("gemm back end " << gemm_backend_name(backend) << ", " << threads << " thread(s), "
+                              << precision_name(precision));
+        if (precision == Precision::Fp32) {
+            CHECK(n1 == 0);
+            CHECK(n2 == 0);
+            CHECK(n3 == 0);
+            CHECK(n_smaller == 0);
+        } else {
+            CHECK(bf16_primitives_created() == created);
+        }
+    }
+}
+
+}  // namespace
+
+// One test case per back end and precision, tagged with what it needs ([blas], [bf16]), so that
+// an absent back end shows as Skipped instead of passing untested (tests/support/main.cpp).
+TEST_CASE("nn: eigen back end in fp32: no heap allocation inside a training step after the first", "[nn]") {
+    check_step_allocations(GemmBackend::Eigen, Precision::Fp32);
+}
+
+TEST_CASE("nn: blas back end in fp32: no heap allocation inside a training step after the first", "[nn][blas]") {
+    check_step_allocations(GemmBackend::Blas, Precision::Fp32);
+}
+
+TEST_CASE("nn: eigen back end in bf16: no new oneDNN primitive inside a training step after the first", "[nn][bf16]") {
+    check_step_allocations(GemmBackend::Eigen, Precision::Bf16);
+}
+
+TEST_CASE("nn: blas back end in bf16: no new oneDNN primitive inside a training step after the first", "[nn][bf16][blas]") {
+    check_step_allocations(GemmBackend::Blas, Precision::Bf16);
+}
+
+TEST_CASE("nn: the allocation counter sees a fresh matrix", "[nn]") {
     long probe;
     {
         CountAllocations count;
@@ -279,11 +288,13 @@ TEST_CASE("nn: no heap allocation inside a training step after the first", "[nn]
 
 // The paper's sizes (H = 512, L = 8, C = 256, PointNet 3 -> 1024 -> 512 -> C, batch 400), where
 // the GEMMs' packing buffers are far above Eigen's stack limit: one step of each stage after a
-// warm-up step, per back end and thread count, allocates nothing. Optimised builds only (~2 s in
-// Release; the steps are 7-10 GFLOP each, which take 40 s in the -O1 sanitizer build, whose run
-// keeps the width-32 test above with the same back ends and thread counts).
+// warm-up step, per back end, precision and thread count, allocates nothing. Optimised builds only
+// (~2 s in Release; the steps are 7-10 GFLOP each, which take 40 s in the -O1 sanitizer build,
+// whose run keeps the width-32 tests above with the same back ends and thread counts).
 #if defined(NDEBUG) && !defined(__SANITIZE_ADDRESS__)
-TEST_CASE("nn: no heap allocation inside a training step at the paper's sizes", "[nn]") {
+namespace {
+
+void check_paper_size_step_allocations(GemmBackend backend, Precision precision) {
     RestoreGemmSettings restore;
     Rng rng(35, 0);
     const int C = 256, N = 400;
@@ -299,35 +310,51 @@ TEST_CASE("nn: no heap allocation inside a training step at the paper's sizes", 
     Stage1Trainer<float> s1(E, F, N, N);
     Stage2Trainer<float> s2(Q, F, N);
     const MatrixXf no_codes;
-    for (const Precision precision : precisions())
-    for (GemmBackend backend : backends())
-        for (int threads : {1, 2}) {
-            set_gemm_precision(precision);
-            set_gemm_backend(backend);
-            Eigen::setNbThreads(threads);
-            s1.step(q, t, pts);  // warm-up: this thread count's GEMM buffers
-            s2.step(q, t, no_codes);
-            const long created = bf16_primitives_created();
-            long n1, n2;
-            {
-                CountAllocations count;
-                s1.step(q, t, pts);
-                n1 = count.count();
-            }
-            {
-                CountAllocations count;
-                s2.step(q, t, no_codes);
-                n2 = count.count();
-            }
-            INFO("gemm back end " << gemm_backend_name(backend) << ", " << threads << " thread(s), "
-                                  << precision_name(precision));
-            if (precision == Precision::Fp32) {
-                CHECK(n1 == 0);
-                CHECK(n2 == 0);
-            } else {  // oneDNN's execute allocates its context; nothing is created after warm-up
-                CHECK(bf16_primitives_created() == created);
-            }
+    set_gemm_precision(precision);
+    set_gemm_backend(backend);
+    for (int threads : {1, 2}) {
+        Eigen::setNbThreads(threads);
+        s1.step(q, t, pts);  // warm-up: this thread count's GEMM buffers
+        s2.step(q, t, no_codes);
+        const long created = bf16_primitives_created();
+        long n1, n2;
+        {
+            CountAllocations count;
+            s1.step(q, t, pts);
+            n1 = count.count();
         }
+        {
+            CountAllocations count;
+            s2.step(q, t, no_codes);
+            n2 = count.count();
+        }
+        INFO("gemm back end " << gemm_backend_name(backend) << ", " << threads << " thread(s), "
+                              << precision_name(precision));
+        if (precision == Precision::Fp32) {
+            CHECK(n1 == 0);
+            CHECK(n2 == 0);
+        } else {  // oneDNN's execute allocates its context; nothing is created after warm-up
+            CHECK(bf16_primitives_created() == created);
+        }
+    }
+}
+
+}  // namespace
+
+TEST_CASE("nn: eigen back end in fp32: no heap allocation inside a training step at the paper's sizes", "[nn]") {
+    check_paper_size_step_allocations(GemmBackend::Eigen, Precision::Fp32);
+}
+
+TEST_CASE("nn: blas back end in fp32: no heap allocation inside a training step at the paper's sizes", "[nn][blas]") {
+    check_paper_size_step_allocations(GemmBackend::Blas, Precision::Fp32);
+}
+
+TEST_CASE("nn: eigen back end in bf16: no new oneDNN primitive inside a training step at the paper's sizes", "[nn][bf16]") {
+    check_paper_size_step_allocations(GemmBackend::Eigen, Precision::Bf16);
+}
+
+TEST_CASE("nn: blas back end in bf16: no new oneDNN primitive inside a training step at the paper's sizes", "[nn][bf16][blas]") {
+    check_paper_size_step_allocations(GemmBackend::Blas, Precision::Bf16);
 }
 #endif
 
