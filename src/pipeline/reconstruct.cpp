@@ -92,10 +92,11 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     ReconstructReport& r = report ? *report : local;
     r = ReconstructReport{};
     const Eigen::Index min_points = min_points_for(options.fit.sampling);
-    check_point_cloud(points, "input cloud", min_points);
-    // Optional denoising (include/pcp/cloud/denoise.hpp); everything below works on `cloud`.
+    // Optional denoising (include/pcp/cloud/denoise.hpp); everything below works on `cloud`, which
+    // checks what it is given. The raw input is checked here only when it is denoised first.
     Points denoised;
     if (options.denoise.passes > 0 || options.denoise.automatic) {
+        check_point_cloud(points, "input cloud", min_points);
         const auto t_denoise = std::chrono::steady_clock::now();
         DenoiseOptions d = options.denoise;
         d.passes = r.denoise_passes = denoise_passes(points, d);
