@@ -4,6 +4,7 @@
 // (src/detail/triangle_distance.cpp).
 #include "pcp/eval/eval.hpp"
 
+#include "eval/eval_frame.hpp"
 #include "eval/triangle_distance.hpp"
 #include "pcp/core/error.hpp"
 #include "pcp/cloud/kdtree.hpp"
@@ -70,6 +71,7 @@ SurfaceSamples sample_mesh_surface(const Mesh& mesh, Eigen::Index n, std::uint64
     SurfaceSamples s;
     s.points.resize(n, 3);
     s.normals.resize(n, 3);
+    s.faces.resize(n);
     Rng rng(seed, 17);
     for (Eigen::Index i = 0; i < n; ++i) {
         const double u = rng.uniform() * total;
@@ -84,6 +86,7 @@ SurfaceSamples sample_mesh_surface(const Mesh& mesh, Eigen::Index n, std::uint64
                                  c = mesh.vertices.row(mesh.faces(f, 2));
         s.points.row(i) = a + r1 * (b - a) + r2 * (c - a);
         s.normals.row(i) = face_normals.row(f);
+        s.faces(i) = static_cast<std::int32_t>(f);
     }
     return s;
 }
@@ -129,9 +132,8 @@ Metrics compare_samples(const SurfaceSamples& pred, const SurfaceSamples& gt, co
     return m;
 }
 
-namespace {
+namespace detail {
 
-/// The evaluation frame: for P2S/ShapeNet, GT's bbox centre to the origin and longest edge to 1.
 Normalization eval_frame(const Points& gt_points, EvalProtocol protocol) {
     if (protocol == EvalProtocol::Scene) return Normalization{};
     return fit_unit_box(gt_points);
@@ -148,7 +150,11 @@ void check_mesh(const Mesh& mesh, const char* which) {
               "evaluation: the " << which << " mesh has face indices out of range");
 }
 
-}  // namespace
+}  // namespace detail
+
+using detail::check_mesh;
+using detail::eval_frame;
+using detail::to_frame;
 
 EvalResult evaluate(const Mesh& pred, const Mesh& gt, const EvalOptions& options) {
     check_mesh(pred, "predicted");

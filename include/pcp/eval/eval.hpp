@@ -17,9 +17,11 @@ namespace pcp {
 struct SurfaceSamples {
     Points points;   ///< N x 3
     Points normals;  ///< N x 3, unit length (zero where unknown)
+    Eigen::Matrix<std::int32_t, Eigen::Dynamic, 1> faces;  ///< N, the face each sample lies on (empty when not sampled from a mesh)
 };
 
-/// `n` points uniform by area on `mesh` (degenerate faces get no samples), with face normals.
+/// `n` points uniform by area on `mesh` (degenerate faces get no samples), with face normals and
+/// the index of the face each lies on.
 SurfaceSamples sample_mesh_surface(const Mesh& mesh, Eigen::Index n, std::uint64_t seed);
 
 enum class EvalProtocol {
