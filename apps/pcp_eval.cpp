@@ -1,13 +1,16 @@
 // pcp_eval PRED GT: compares a reconstructed mesh with ground truth using the paper's metrics
 // (METHOD.md section 6) under the p2s / shapenet / scene protocols; prints a table, JSON, or
-// tab-separated lines for scripts (--tsv).
+// tab-separated lines for scripts (--tsv). With --diagnose it prints the error budget of
+// pcp::diagnose() instead (components, support by --input, the split of L2-CD).
 #include "cli_common.hpp"
 
 #include "pcp/core/error.hpp"
+#include "pcp/eval/diagnose.hpp"
 #include "pcp/eval/eval.hpp"
 #include "pcp/core/files.hpp"
 #include "pcp/io/io.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <optional>
@@ -110,6 +113,150 @@ SdfReport sign_report(const pcp::Mesh& pred, const GroundTruth& gt, const std::s
     return report;
 }
 
+
+/// A component's row fields, shared by the JSON and TSV printers.
+std::vector<std::pair<std::string, double>> component_fields(const pcp::ComponentInfo& c) {
+    return {{"faces", static_cast<double>(c.faces)}, {"vertices", static_cast<double>(c.vertices)},
+            {"edges", static_cast<double>(c.edges)}, {"area", c.area}, {"euler", static_cast<double>(c.euler)},
+            {"boundary_edges", static_cast<double>(c.boundary_edges)}, {"closed", c.closed ? 1.0 : 0.0},
+            {"genus", static_cast<double>(c.genus)}, {"unsupported_fraction", c.unsupported_fraction},
+            {"floating", c.floating ? 1.0 : 0.0}};
+}
+
+/// The scalar entries of a diagnosis, in print order (L2 pieces also x 100, as pcp_eval's L2-CD x 100).
+std::vector<std::pair<std::string, double>> diagnosis_fields(const pcp::Diagnosis& d) {
+    return {{"samples", static_cast<double>(d.samples)},
+            {"frame_scale", d.frame_scale},
+            {"has_input", d.has_input ? 1.0 : 0.0},
+            {"spacing", d.spacing},
+            {"support_radius", d.support_radius},
+            {"near_threshold", d.near_threshold},
+            {"pred_components", static_cast<double>(d.pred_components.size())},
+            {"gt_components", static_cast<double>(d.gt_components.size())},
+            {"pred_area", d.pred_area},
+            {"gt_area", d.gt_area},
+            {"unsupported_area_fraction", d.unsupported_area_fraction},
+            {"floating_components", static_cast<double>(d.floating_components)},
+            {"floating_area", d.floating_area},
+            {"floating_area_fraction", d.floating_area_fraction},
+            {"chamfer_l2_x100", 100 * d.chamfer_l2},
+            {"accuracy_l2_x100", 100 * d.accuracy_l2},
+            {"accuracy_away_l2_x100", 100 * d.accuracy_away_l2},
+            {"accuracy_main_l2_x100", 100 * d.accuracy_main_l2},
+            {"away_sample_fraction", d.away_sample_fraction},
+            {"offset", d.offset},
+            {"roughness", d.roughness},
+            {"mean_abs_distance", d.mean_abs_distance},
+            {"offset_signed_by_closed_gt", d.offset_signed_by_closed_gt ? 1.0 : 0.0},
+            {"completeness_l2_x100", 100 * d.completeness_l2},
+            {"completeness_missing_l2_x100", 100 * d.completeness_missing_l2},
+            {"completeness_rest_l2_x100", 100 * d.completeness_rest_l2},
+            {"missing_area_fraction", d.missing_area_fraction}};
+}
+
+void print_diagnosis_json(std::ostream& out, const pcp::Diagnosis& d, const std::string& pred_path, const std::string& gt_path,
+                          const std::string& input_path, const std::string& protocol) {
+    out.precision(9);
+    out << "{\"pred\": \"" << pred_path << "\", \"gt\": \"" << gt_path << "\", \"input\": ";
+    if (input_path.empty()) out << "null";
+    else out << "\"" << input_path << "\"";
+    out << ", \"protocol\": \"" << protocol << "\"";
+    for (const auto& [key, value] : diagnosis_fields(d)) out << ", \"" << key << "\": " << value;
+    for (const auto& [name, list] : {std::pair<const char*, const std::vector<pcp::ComponentInfo>*>{"pred_component_list", &d.pred_components},
+                                     {"gt_component_list", &d.gt_components}}) {
+        out << ", \"" << name << "\": [";
+        for (std::size_t i = 0; i < list->size(); ++i) {
+            out << (i ? ", " : "") << "{";
+            bool first = true;
+            for (const auto& [key, value] : component_fields((*list)[i])) {
+                out << (first ? "" : ", ") << "\"" << key << "\": " << value;
+                first = false;
+            }
+            out << "}";
+        }
+        out << "]";
+    }
+    out << "}" << std::endl;
+}
+
+/// Key/value lines: the scalars, then "pred_component.I.FIELD" / "gt_component.I.FIELD" (I by decreasing area).
+void print_diagnosis_tsv(std::ostream& out, const pcp::Diagnosis& d, const std::string& protocol) {
+    out.precision(9);
+    out << "protocol\t" << protocol << "\n";
+    for (const auto& [key, value] : diagnosis_fields(d)) out << key << "\t" << value << "\n";
+    for (const auto& [name, list] : {std::pair<const char*, const std::vector<pcp::ComponentInfo>*>{"pred_component", &d.pred_components},
+                                     {"gt_component", &d.gt_components}})
+        for (std::size_t i = 0; i < list->size(); ++i)
+            for (const auto& [key, value] : component_fields((*list)[i])) out << name << "." << i << "." << key << "\t" << value << "\n";
+    out << std::flush;
+}
+
+std::string percent(double fraction) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.2f %%", 100 * fraction);
+    return buf;
+}
+
+void print_components(std::ostream& out, const std::vector<pcp::ComponentInfo>& list, double total_area, bool has_input,
+                      std::size_t max_rows) {
+    out << "| # | faces | area | area % | V-E+F | boundary edges | genus |" << (has_input ? " unsupported % | floating |" : "")
+        << "\n|---|---|---|---|---|---|---|" << (has_input ? "---|---|" : "") << "\n";
+    for (std::size_t i = 0; i < list.size() && i < max_rows; ++i) {
+        const pcp::ComponentInfo& c = list[i];
+        char buf[256];
+        std::snprintf(buf, sizeof buf, "| %zu | %lld | %.6g | %s | %lld | %lld | %s |", i, static_cast<long long>(c.faces), c.area,
+                      percent(total_area > 0 ? c.area / total_area : 0).c_str(), static_cast<long long>(c.euler),
+                      static_cast<long long>(c.boundary_edges), c.closed ? std::to_string(c.genus).c_str() : "- (open)");
+        out << buf;
+        if (has_input) out << " " << percent(c.unsupported_fraction) << " | " << (c.floating ? "yes" : "no") << " |";
+        out << "\n";
+    }
+    if (list.size() > max_rows) {
+        double rest = 0;
+        for (std::size_t i = max_rows; i < list.size(); ++i) rest += list[i].area;
+        out << "| ... " << list.size() - max_rows << " more, area " << rest << " (" << percent(total_area > 0 ? rest / total_area : 0)
+            << ") |\n";
+    }
+}
+
+void print_diagnosis_table(std::ostream& out, const pcp::Diagnosis& d, const std::string& pred_path, const std::string& gt_path,
+                           const std::string& input_path, const std::string& protocol, std::uint64_t seed) {
+    out << "pcp_eval --diagnose: " << pred_path << " vs " << gt_path << " (protocol " << protocol << ", " << d.samples
+        << " samples, seed " << seed << "; lengths in the evaluation frame, x " << d.frame_scale << " of the files')\n";
+    if (d.has_input)
+        out << "input " << input_path << ": spacing " << d.spacing << " (median nearest-neighbour distance); support radius "
+            << d.support_radius << ", near threshold " << d.near_threshold << "\n";
+    else
+        out << "no --input: nothing counts as unsupported; spacing " << d.spacing << " (of the GT samples), near threshold "
+            << d.near_threshold << "\n";
+    auto row = [&](const char* name, double l2, const std::string& note) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf, "| %-30s | %12.6g | %7s | %s |", name, 100 * l2,
+                      percent(d.chamfer_l2 > 0 ? l2 / d.chamfer_l2 : 0).c_str(), note.c_str());
+        out << buf << "\n";
+    };
+    out << "\n| L2-CD budget                   |   L2-CD x100 |   share | note |\n|---|---|---|---|\n";
+    row("total (= pcp_eval's L2-CD)", d.chamfer_l2, "");
+    row("accuracy (pred -> GT)", d.accuracy_l2, "");
+    row("  away from the data", d.accuracy_away_l2, percent(d.away_sample_fraction) + " of pred area (unsupported or floating)");
+    row("  main surface", d.accuracy_main_l2, "");
+    row("completeness (GT -> pred)", d.completeness_l2, "");
+    row("  missing surface", d.completeness_missing_l2, percent(d.missing_area_fraction) + " of GT area");
+    row("  rest", d.completeness_rest_l2, "");
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "\nmain surface vs GT: offset %+.4g (+ = outside; sign by %s), roughness %.4g, mean |d| %.4g\n",
+                  d.offset, d.offset_signed_by_closed_gt ? "the closed GT" : "the GT's face normals", d.roughness, d.mean_abs_distance);
+    out << buf;
+    out << "\npred: " << d.pred_components.size() << " components, area " << d.pred_area;
+    if (d.has_input)
+        out << "; unsupported area " << percent(d.unsupported_area_fraction) << "; " << d.floating_components
+            << " floating, area " << d.floating_area << " (" << percent(d.floating_area_fraction) << ")";
+    out << "\n";
+    print_components(out, d.pred_components, d.pred_area, d.has_input, 8);
+    out << "\ngt: " << d.gt_components.size() << " components, area " << d.gt_area << "\n";
+    print_components(out, d.gt_components, d.gt_area, false, 4);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -130,6 +277,14 @@ int main(int argc, char** argv) {
             ("sdf-convention", "auto (judged by GT's winding numbers; needs a GT mesh) | negative-inside | positive-inside",
              cxxopts::value<std::string>()->default_value("auto"))
             ("no-floor", "Skip the floor (GT against an independent sampling of itself)")
+            ("diagnose", "Print the error budget instead of the metrics: PRED's connected components (area, genus), "
+             "its area away from --input, and L2-CD split into accuracy away from the data / on the main surface "
+             "(with its offset and roughness) and completeness on missing surface / the rest; needs a GT mesh")
+            ("input", "With --diagnose: the input cloud PRED was made from (same frame as GT)", cxxopts::value<std::string>()->default_value(""))
+            ("support-k", "With --diagnose: a PRED sample is supported when an input point is within this many spacings "
+             "(median nearest-neighbour distance of the input)", cxxopts::value<double>()->default_value(std::to_string(pcp::DiagnoseOptions{}.support_k)))
+            ("near-k", "With --diagnose: GT surface farther than this many spacings from PRED is missing",
+             cxxopts::value<double>()->default_value(std::to_string(pcp::DiagnoseOptions{}.near_k)))
             ("json", "Print JSON instead of a table")
             ("tsv", "Print one tab-separated line per metric: name, value, floor (\"-\" without one)");
         options.parse_positional({"pred", "gt"});
@@ -156,9 +311,35 @@ int main(int argc, char** argv) {
         if (convention != "auto" && convention != "negative-inside" && convention != "positive-inside")
             throw pcp::cli::UsageError("--sdf-convention: '" + convention + "' is not auto, negative-inside or positive-inside");
         const std::string pred_path = args["pred"].as<std::string>(), gt_path = args["gt"].as<std::string>();
+        const bool diagnose = args.count("diagnose") > 0;
+        const std::string input_path = args["input"].as<std::string>();
+        if (!diagnose && (!input_path.empty() || args["support-k"].count() || args["near-k"].count()))
+            throw pcp::cli::UsageError("--input, --support-k and --near-k need --diagnose");
+        if (diagnose && (args.count("gt-points") || !args["sdf-samples"].as<std::string>().empty()))
+            throw pcp::cli::UsageError("--diagnose needs a GT mesh and excludes --gt-points and --sdf-samples");
+        if (diagnose && !(args["support-k"].as<double>() > 0 && args["near-k"].as<double>() > 0))
+            throw pcp::cli::UsageError("--support-k and --near-k must be > 0");
         const pcp::Mesh pred = pcp::read_mesh(pred_path);
         PCP_CHECK(pred.faces.rows() > 0, pred_path << ": the predicted mesh has no faces");
         const GroundTruth gt = read_ground_truth(gt_path, args.count("gt-points") > 0);
+        if (diagnose) {
+            PCP_CHECK(gt.is_mesh, gt_path << ": --diagnose needs a ground-truth mesh (.ply .obj .off with faces)");
+            pcp::Points input_points(0, 3);
+            if (!input_path.empty()) input_points = pcp::cli::load_checked_cloud(input_path, 2).points;
+            pcp::DiagnoseOptions dopts;
+            dopts.protocol = opts.protocol;
+            dopts.samples = opts.samples;
+            dopts.seed = opts.seed;
+            dopts.support_k = args["support-k"].as<double>();
+            dopts.near_k = args["near-k"].as<double>();
+            const Eigen::Ref<const pcp::Points> input_ref(input_points);
+            const pcp::Diagnosis d = pcp::diagnose(pred, gt.mesh, input_path.empty() ? nullptr : &input_ref, dopts);
+            const std::string protocol = pcp::to_string(opts.protocol);
+            if (args.count("json")) print_diagnosis_json(std::cout, d, pred_path, gt_path, input_path, protocol);
+            else if (args.count("tsv")) print_diagnosis_tsv(std::cout, d, protocol);
+            else print_diagnosis_table(std::cout, d, pred_path, gt_path, input_path, protocol, opts.seed);
+            return 0;
+        }
         const pcp::EvalResult r = gt.is_mesh ? pcp::evaluate(pred, gt.mesh, opts) : pcp::evaluate(pred, gt.points, opts);
         const std::string sdf_path = args["sdf-samples"].as<std::string>();
         const std::optional<SdfReport> sdf =

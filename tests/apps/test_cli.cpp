@@ -7,6 +7,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -327,4 +328,48 @@ TEST_CASE("cli: --precision: bad values exit 2 naming the flag, and the run's su
         CHECK(r.err.find("| precision " + p) != std::string::npos);
         CHECK(fs::exists(out));
     }
+}
+
+TEST_CASE("cli: pcp_eval --diagnose prints the error budget, a missing --input exits 1 naming it", "[cli]") {
+    const fs::path dir = case_dir("eval_diagnose");
+    const pcp::Mesh sphere = pcp::test::uv_sphere(1.0, 16, 32);
+    pcp::Mesh two = sphere;  // the sphere plus a detached copy far from the input: two components
+    two.vertices.resize(2 * sphere.vertices.rows(), 3);
+    two.vertices << sphere.vertices, (sphere.vertices * 0.2).rowwise() + Eigen::RowVector3d(3, 0, 0);
+    two.faces.resize(2 * sphere.faces.rows(), 3);
+    two.faces << sphere.faces, (sphere.faces.array() + static_cast<std::int32_t>(sphere.vertices.rows())).matrix();
+    pcp::write_mesh((dir / "a.ply").string(), two);
+    pcp::write_mesh((dir / "b.ply").string(), sphere);
+    pcp::PointCloud input;
+    input.points = pcp::sample_sphere(3000, 1.0, Eigen::Vector3d::Zero(), 5).points;
+    pcp::write_point_cloud((dir / "c.ply").string(), input);
+
+    const std::string eval = bin("pcp_eval") + " '" + (dir / "a.ply").string() + "' '" + (dir / "b.ply").string() +
+                             "' --samples 2000 --diagnose --input '";
+    const fs::path out = dir / "out.txt";
+    REQUIRE(std::system((eval + (dir / "c.ply").string() + "' > '" + out.string() + "'").c_str()) == 0);
+    std::ifstream in(out);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    INFO(text);
+    CHECK(text.find("pred: 2 components") != std::string::npos);
+    CHECK(text.find("1 floating") != std::string::npos);
+
+    REQUIRE(std::system((eval + (dir / "c.ply").string() + "' --tsv > '" + out.string() + "'").c_str()) == 0);
+    std::ifstream in_tsv(out);
+    const std::string tsv((std::istreambuf_iterator<char>(in_tsv)), std::istreambuf_iterator<char>());
+    INFO(tsv);
+    CHECK(tsv.find("pred_components\t2\n") != std::string::npos);
+    CHECK(tsv.find("floating_components\t1\n") != std::string::npos);
+    CHECK(tsv.find("pred_component.1.floating\t1\n") != std::string::npos);
+
+    const RunResult missing = run(eval + (dir / "nowhere.ply").string() + "'");
+    INFO("stderr: " << missing.err);
+    CHECK(missing.exit_code == 1);
+    CHECK(missing.err.find("nowhere.ply") != std::string::npos);
+    CHECK(std::count(missing.err.begin(), missing.err.end(), '\n') == 1);
+
+    const RunResult no_diagnose = run(bin("pcp_eval") + " '" + (dir / "a.ply").string() + "' '" + (dir / "b.ply").string() +
+                                      "' --input '" + (dir / "c.ply").string() + "'");
+    CHECK(no_diagnose.exit_code == 2);
+    CHECK(no_diagnose.err.find("--diagnose") != std::string::npos);
 }

@@ -23,10 +23,10 @@ struct DiagnoseOptions {
     /// "Near the data": a predicted sample is supported when an input point lies within
     /// support_k x spacing, where spacing is the input's median nearest-neighbour distance (without
     /// an input cloud: the median nearest-neighbour distance of the GT samples).
-    double support_k = 4.0;
+    double support_k = 3.0;
     /// Missing surface: a GT sample is missing when the predicted mesh (exact point-to-triangle
     /// distance) is farther than near_k x spacing.
-    double near_k = 4.0;
+    double near_k = 3.0;
     /// A predicted component is floating when more than this fraction of its area is unsupported.
     double floating_fraction = 0.5;
 };
