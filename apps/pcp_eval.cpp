@@ -282,9 +282,9 @@ int main(int argc, char** argv) {
              "(with its offset and roughness) and completeness on missing surface / the rest; needs a GT mesh")
             ("input", "With --diagnose: the input cloud PRED was made from (same frame as GT)", cxxopts::value<std::string>()->default_value(""))
             ("support-k", "With --diagnose: a PRED sample is supported when an input point is within this many spacings "
-             "(median nearest-neighbour distance of the input)", cxxopts::value<double>()->default_value(std::to_string(pcp::DiagnoseOptions{}.support_k)))
+             "(median nearest-neighbour distance of the input)", cxxopts::value<double>()->default_value(join_thresholds({pcp::DiagnoseOptions{}.support_k})))
             ("near-k", "With --diagnose: GT surface farther than this many spacings from PRED is missing",
-             cxxopts::value<double>()->default_value(std::to_string(pcp::DiagnoseOptions{}.near_k)))
+             cxxopts::value<double>()->default_value(join_thresholds({pcp::DiagnoseOptions{}.near_k})))
             ("json", "Print JSON instead of a table")
             ("tsv", "Print one tab-separated line per metric: name, value, floor (\"-\" without one)");
         options.parse_positional({"pred", "gt"});

@@ -28,4 +28,5 @@
 
 #include "pcp/reconstruct.hpp"
 
+#include "pcp/eval/diagnose.hpp"
 #include "pcp/eval/eval.hpp"
