@@ -3,7 +3,7 @@
 # what is missing, and runs apt-get update only when something is. Run as root (or with sudo).
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config
-          libeigen3-dev libcgal-dev libnanoflann-dev catch2 libcxxopts-dev time
+          libeigen3-dev libcgal-dev libnanoflann-dev catch2 libcxxopts-dev time libpng-dev
           libopenblas-openmp-dev   # OpenBLAS: nn::gemm's default fp32 back end (PCP_BLAS=AUTO)
           libdnnl-dev)             # oneDNN: the bf16 products of --precision bf16/auto (PCP_DNNL=AUTO)
 missing=()

@@ -30,3 +30,5 @@
 
 #include "pcp/eval/diagnose.hpp"
 #include "pcp/eval/eval.hpp"
+
+#include "pcp/render/render.hpp"
