@@ -171,7 +171,7 @@ TEST_CASE("cli: bad output paths are refused before any work", "[cli]") {
 }
 
 TEST_CASE("cli: usage errors exit 2, --help exits 0 and lists defaults", "[cli]") {
-    for (const char* app : {"pcp_train", "pcp_reconstruct", "pcp_eval"}) {
+    for (const char* app : {"pcp_train", "pcp_reconstruct", "pcp_eval", "pcp_render"}) {
         const RunResult help = run(bin(app) + " --help");
         CHECK(help.exit_code == 0);
         const RunResult bad = run(bin(app) + " --no-such-flag");
@@ -372,4 +372,62 @@ TEST_CASE("cli: pcp_eval --diagnose prints the error budget, a missing --input e
                                       "' --input '" + (dir / "c.ply").string() + "'");
     CHECK(no_diagnose.exit_code == 2);
     CHECK(no_diagnose.err.find("--diagnose") != std::string::npos);
+TEST_CASE("cli: pcp_render draws meshes and clouds into one PNG, names bad inputs, never overwrites an input", "[cli]") {
+    const fs::path dir = case_dir("render");
+    const fs::path mesh = dir / "sphere.ply", cloud = dir / "cloud.xyz", out = dir / "view.png";
+    pcp::write_mesh(mesh.string(), pcp::test::uv_sphere(1.0, 12, 24));
+    write_text(cloud, xyz_lines(pcp::sample_sphere(300, 1.0, Eigen::Vector3d::Zero(), 4).points));
+    const std::string render = bin("pcp_render") + " '" + mesh.string() + "' '" + cloud.string() + "' ";
+
+    const RunResult ok = run(render + "--size 64 --labels mesh,cloud -o '" + out.string() + "'");
+    INFO("stderr: " << ok.err);
+    CHECK(ok.exit_code == 0);
+    REQUIRE(fs::exists(out));
+    std::ifstream in(out, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    REQUIRE(bytes.size() > 24);
+    CHECK(bytes.substr(1, 3) == "PNG");
+    // IHDR: width 2 x 64, height 3 views x 64 (big-endian at bytes 16 and 20).
+    CHECK(static_cast<unsigned char>(bytes[19]) == 128);
+    CHECK(static_cast<unsigned char>(bytes[23]) == 192);
+
+    // A missing input: exit 1, one line naming it, no picture.
+    const fs::path out2 = dir / "none.png";
+    const RunResult missing = run(bin("pcp_render") + " '" + mesh.string() + "' '" + (dir / "missing.ply").string() + "' -o '" +
+                                  out2.string() + "'");
+    INFO("stderr: " << missing.err);
+    CHECK(missing.exit_code == 1);
+    CHECK(missing.err.find("pcp_render: ") == 0);
+    CHECK(std::count(missing.err.begin(), missing.err.end(), '\n') == 1);
+    CHECK(missing.err.find("missing.ply") != std::string::npos);
+    CHECK(!fs::exists(out2));
+
+    // An empty cloud is named too.
+    write_text(dir / "empty.xyz", "");
+    const RunResult empty = run(render + "'" + (dir / "empty.xyz").string() + "' -o '" + out2.string() + "'");
+    CHECK(empty.exit_code == 1);
+    CHECK(empty.err.find("empty.xyz") != std::string::npos);
+    CHECK(!fs::exists(out2));
+
+    // -o equal to an input is refused and the input stays as it was.
+    const fs::path fake_png = dir / "input.png";
+    write_text(fake_png, "not a mesh");
+    const auto mesh_size = fs::file_size(mesh);
+    const RunResult same = run(render + "-o '" + (dir / "." / "sphere.ply").string() + "'");
+    CHECK(same.exit_code == 2);  // not a .png: a usage error before anything is read
+    CHECK(fs::file_size(mesh) == mesh_size);
+    const RunResult same_png = run(bin("pcp_render") + " '" + mesh.string() + "' '" + fake_png.string() + "' -o '" +
+                                   (dir / "." / "input.png").string() + "'");
+    INFO("stderr: " << same_png.err);
+    CHECK(same_png.exit_code == 1);
+    CHECK(same_png.err.find("is the input") != std::string::npos);
+    CHECK(fs::file_size(fake_png) == 10);
+
+    // Usage errors: label count, views.
+    CHECK(run(render + "--labels a -o '" + out2.string() + "'").exit_code == 2);
+    const RunResult views = run(render + "--views sideways -o '" + out2.string() + "'");
+    CHECK(views.exit_code == 2);
+    CHECK(views.err.find("--views: 'sideways'") != std::string::npos);
+    CHECK(run(render + "--views front,30:20 --size 32 -o '" + out2.string() + "'").exit_code == 0);
+    CHECK(fs::exists(out2));
 }
