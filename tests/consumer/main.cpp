@@ -1,5 +1,6 @@
 // Uses the installed libpcp through its public headers only (no nanoflann or CGAL on the include
-// path of this project): builds a KD-tree, samples queries, writes and reads a cloud.
+// path of this project): builds a KD-tree, samples queries, writes and reads a cloud, renders it
+// and encodes the picture as PNG (libpng, a private dependency, must reach the link line).
 #include <pcp/pcp.hpp>
 
 #include <cstdio>
@@ -15,6 +16,10 @@ int main() {
         const pcp::PointCloud back = pcp::read_point_cloud("consumer_cloud.ply");
         std::remove("consumer_cloud.ply");
         if (back.points != cloud.points || queries.queries.rows() != 500 * 40) return 1;
+        pcp::RenderOptions view;
+        view.view_size = 32;
+        const pcp::Image picture = pcp::render({pcp::RenderItem{{}, cloud.points, "cloud"}}, view);
+        if (pcp::encode_png(picture).size() < 60) return 1;
         PCP_CHECK(false, "consumer: expected failure");
     } catch (const pcp::Error& e) {
         std::cout << "libpcp " << PCP_VERSION_STRING << " linked; error channel works: " << e.what() << "\n";
