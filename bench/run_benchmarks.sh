@@ -5,7 +5,10 @@
 # `/usr/bin/time -v` (wall time, peak RSS), evaluates both meshes with pcp_eval under the p2s and
 # shapenet protocols (with the floor: ground truth against itself), and writes one generated
 # section between the markers below into the Markdown file, replacing the previous one and leaving
-# the rest of the file untouched (written atomically: temp file + mv, after every case). Shared
+# the rest of the file untouched (written atomically: temp file + mv, after every case). After each
+# case's runs, pcp_render draws one picture of it next to its meshes, OUT/<case>/<case>.png (columns
+# input, PCP, Poisson, ground truth; a mesh that was not made is left out; a failed or missing
+# pcp_render is a warning, never a failed benchmark). Shared
 # functions (manifest, cases, commands, time reports, machine line): bench/lib_bench.sh.
 #
 # Usage: bench/run_benchmarks.sh [options] [-- extra pcp_reconstruct options]
@@ -17,13 +20,14 @@
 #   --out DIR         meshes, logs, time reports and results.tsv (default: a new temp dir in
 #                     ${TMPDIR:-/tmp}; never inside the repository)
 #   --markdown FILE   file that receives the generated section (default: <repo>/docs/BENCHMARKS.md)
-#   --bin DIR         where pcp_reconstruct, pcp_poisson_baseline, pcp_eval are (default: <repo>/build/bin)
+#   --bin DIR         where pcp_reconstruct, pcp_poisson_baseline, pcp_eval (and pcp_render, for the
+#                     pictures) are (default: <repo>/build/bin)
 #   --lock FILE       run every measured command under `flock FILE` (e.g. /tmp/pcp_build.lock), so
 #                     other jobs can run between commands but never during one
 #   --dry-run         print the commands only; run nothing, write nothing
 #   -h, --help        this text
 # Commands run one at a time (every run uses all cores). Build first with -DPCP_BUILD_BENCH=ON:
-#   cmake --build build --target pcp_reconstruct pcp_eval pcp_poisson_baseline
+#   cmake --build build --target pcp_reconstruct pcp_eval pcp_poisson_baseline pcp_render
 # Exit status: 0 all runs succeeded (cases with missing files are reported and skipped), 1 at least
 # one run or evaluation failed (its row says so; the other cases still run), 2 bad command line or
 # missing tools, 130 interrupted.
@@ -70,10 +74,12 @@ bench_select_cases "$cases_filter" "$category_filter"
 reconstruct="$bin_dir/pcp_reconstruct"
 poisson="$bin_dir/pcp_poisson_baseline"
 evaluate="$bin_dir/pcp_eval"
+render="$bin_dir/pcp_render"
 if [ $dry_run -eq 0 ]; then
     for tool in "$reconstruct" "$poisson" "$evaluate"; do
         [ -x "$tool" ] || die_usage "missing $tool (configure with -DPCP_BUILD_BENCH=ON and build it)"
     done
+    [ -x "$render" ] || echo "run_benchmarks: warning: missing $render: no pictures (build the pcp_render target)" >&2
     [ -x /usr/bin/time ] || die_usage "GNU time is needed as /usr/bin/time (Debian package 'time')"
     if [ -n "$lock_file" ]; then command -v flock >/dev/null || die_usage "--lock needs flock (util-linux)"; fi
 fi
@@ -169,7 +175,34 @@ run_case() {
         [ -z "${R[$name|$method|status]+x}" ] && R[$name|$method|status]=ok
         [ $dry_run -eq 0 ] && echo "run_benchmarks: $name: $method done in ${R[$name|$method|time]} s" >&2
     done
+    render_case "$name" "$dir" "$input" "$gt"
     return 0
+}
+
+# render_case NAME DIR INPUT GT : DIR/NAME.png, the input, the meshes made and the ground truth side
+# by side (pcp_render). Never counts as a failure: a missing tool or a failed render is a warning.
+render_case() {
+    local name=$1 dir=$2 input=$3 gt=$4 method rc labels
+    local files=("$input") names=(input)
+    for method in "${METHODS[@]}"; do
+        if [ $dry_run -eq 1 ] || [ -s "$dir/$method.ply" ]; then
+            files+=("$dir/$method.ply")
+            names+=("$method")
+        fi
+    done
+    files+=("$gt")
+    names+=(gt)
+    [ $dry_run -eq 0 ] && [ ! -x "$render" ] && return 0
+    labels=$(IFS=,; echo "${names[*]}")
+    run_logged "$dir/render.log" "$render" "${files[@]}" --labels "$labels" -o "$dir/$name.png"
+    rc=$?
+    [ $dry_run -eq 1 ] && return 0
+    { [ $rc -eq 130 ] || [ $rc -eq 143 ]; } && { echo "run_benchmarks: interrupted" >&2; exit 130; }
+    if [ $rc -ne 0 ]; then
+        echo "run_benchmarks: warning: $name: pcp_render failed (exit $rc, see $dir/render.log); no picture" >&2
+    else
+        echo "run_benchmarks: $name: picture $dir/$name.png ($labels)" >&2
+    fi
 }
 
 # ---- the Markdown section ----

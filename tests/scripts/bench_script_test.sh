@@ -47,7 +47,9 @@ dry-run)
                 "/nonexistent/bin/pcp_eval $work/out/fine_case/$m.ply $work/data/fine/gt.ply --protocol $p --tsv >$work/out/fine_case/$m.$p.tsv"
         done
     done
-    check "six commands in all" [ "$(grep -c '^/' "$work/stdout")" -eq 6 ]
+    check "pcp_render command" contains "$work/stdout" \
+        "/nonexistent/bin/pcp_render $work/data/fine/input.ply $work/out/fine_case/pcp.ply $work/out/fine_case/poisson.ply $work/data/fine/gt.ply --labels input\,pcp\,poisson\,gt -o $work/out/fine_case/fine_case.png >$work/out/fine_case/render.log 2>&1"
+    check "seven commands in all" [ "$(grep -c '^/' "$work/stdout")" -eq 7 ]
     check "nothing written" [ ! -e "$work/BENCH.md" ] && check "no output dir" [ ! -e "$work/out" ]
 
     bash "$script" --manifest "$work/data/MANIFEST.tsv" --cases fine_case,nope --dry-run >/dev/null 2>"$work/stderr2"
@@ -85,6 +87,13 @@ printf 'chamfer_l1\t0.0123\t0.002\nchamfer_l2\t0.0025\t4e-05\nchamfer_l2_x100\t%
 printf 'normal_consistency\t%s\t0.98\nhausdorff\t0.1\t0.01\n' "$nc"
 printf 'fscore@0.002\t0.41\t0.56\nfscore@0.004\t0.77\t0.96\nscene_error\t0.01\t-\n'
 EOF
+    # The fake pcp_render records its arguments and writes OUT; it fails when FAKE_RENDER_FAILS is set.
+    cat >"$work/bin/pcp_render" <<'EOF'
+#!/usr/bin/env bash
+[ -n "${FAKE_RENDER_FAILS:-}" ] && { echo "fake render: error" >&2; exit 1; }
+out=""; args=("$@"); while [ $# -gt 0 ]; do [ "$1" = -o ] && out=$2; shift; done
+echo "${args[*]}" >"$out.args"; echo png >"$out"
+EOF
     chmod +x "$work/bin/"*
     md="$work/BENCH.md"
     printf '# Title\n\nhand-written text above\n' >"$md"
@@ -102,6 +111,10 @@ EOF
     check "skipped row" contains "$md" "| lost_case | 100 | - | skipped: missing input $work/data/lost/input.ply"
     check "ABC summary next to the paper" contains "$md" '| ABC (Points2Surf scans) | 1 | 0.25 | 1.5 | 0.930 | 0.710 | 1 of 1 | 0.200 | 0.48 | 2.49 |'
     check "results.tsv" contains "$work/out/results.tsv" $'fine_case\tpcp\tok\t'
+    check "picture next to the meshes" [ -s "$work/out/fine_case/fine_case.png" ]
+    check "picture of input, PCP, Poisson, GT" contains "$work/out/fine_case/fine_case.png.args" \
+        "$work/data/fine/input.ply $work/out/fine_case/pcp.ply $work/out/fine_case/poisson.ply $work/data/fine/gt.ply --labels input,pcp,poisson,gt -o $work/out/fine_case/fine_case.png"
+    check "no picture for the skipped case" [ ! -e "$work/out/lost_case" ]
 
     # Second run: the Poisson baseline fails; text added below the section must survive.
     printf '\nhand-written text below\n' >>"$md"
@@ -117,6 +130,17 @@ EOF
     check "text above still kept" contains "$md" "hand-written text above"
     check "text below kept" contains "$md" "hand-written text below"
     check "no temp file left" [ -z "$(find "$work" -maxdepth 1 -name '.BENCH.md.*')" ]
+    check "picture without the missing Poisson mesh" contains "$work/out2/fine_case/fine_case.png.args" \
+        "$work/out2/fine_case/pcp.ply $work/data/fine/gt.ply --labels input,pcp,gt -o"
+
+    # Third run: pcp_render fails; the benchmark still succeeds, with a warning.
+    FAKE_RENDER_FAILS=1 bash "$script" --manifest "$work/data/MANIFEST.tsv" --preset fast --out "$work/out3" \
+        --markdown "$md" --bin "$work/bin" >"$work/stdout" 2>"$work/stderr"
+    rc=$?
+    cat "$work/stderr"
+    check "a failed picture does not fail the run" [ "$rc" -eq 0 ]
+    check "failed picture warned" contains "$work/stderr" "warning: fine_case: pcp_render failed (exit 1, see $work/out3/fine_case/render.log); no picture"
+    check "no picture left" [ ! -e "$work/out3/fine_case/fine_case.png" ]
     ;;
 eval-tsv)
     [ -n "$bin" ] || { echo "eval-tsv needs BIN_DIR"; exit 2; }
