@@ -374,12 +374,14 @@ TEST_CASE("cli: pcp_eval --diagnose prints the error budget, a missing --input e
     CHECK(no_diagnose.err.find("--diagnose") != std::string::npos);
 TEST_CASE("cli: pcp_render draws meshes and clouds into one PNG, names bad inputs, never overwrites an input", "[cli]") {
     const fs::path dir = case_dir("render");
-    const fs::path mesh = dir / "sphere.ply", cloud = dir / "cloud.xyz", out = dir / "view.png";
+    const fs::path mesh = dir / "sphere.ply", cloud = dir / "cloud.xyz", ply_cloud = dir / "cloud.ply", out = dir / "view.png";
     pcp::write_mesh(mesh.string(), pcp::test::uv_sphere(1.0, 12, 24));
     write_text(cloud, xyz_lines(pcp::sample_sphere(300, 1.0, Eigen::Vector3d::Zero(), 4).points));
+    pcp::write_point_cloud(ply_cloud.string(), pcp::sample_sphere(300, 1.0, Eigen::Vector3d::Zero(), 5));
     const std::string render = bin("pcp_render") + " '" + mesh.string() + "' '" + cloud.string() + "' ";
 
-    const RunResult ok = run(render + "--size 64 --labels mesh,cloud -o '" + out.string() + "'");
+    // A .ply mesh, an .xyz cloud and a .ply cloud (no face element) side by side.
+    const RunResult ok = run(render + "'" + ply_cloud.string() + "' --size 64 --labels mesh,cloud,plycloud -o '" + out.string() + "'");
     INFO("stderr: " << ok.err);
     CHECK(ok.exit_code == 0);
     REQUIRE(fs::exists(out));
@@ -387,8 +389,8 @@ TEST_CASE("cli: pcp_render draws meshes and clouds into one PNG, names bad input
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     REQUIRE(bytes.size() > 24);
     CHECK(bytes.substr(1, 3) == "PNG");
-    // IHDR: width 2 x 64, height 3 views x 64 (big-endian at bytes 16 and 20).
-    CHECK(static_cast<unsigned char>(bytes[19]) == 128);
+    // IHDR: width 3 x 64, height 3 views x 64 (big-endian at bytes 16 and 20).
+    CHECK(static_cast<unsigned char>(bytes[19]) == 192);
     CHECK(static_cast<unsigned char>(bytes[23]) == 192);
 
     // A missing input: exit 1, one line naming it, no picture.
