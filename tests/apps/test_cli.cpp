@@ -372,6 +372,8 @@ TEST_CASE("cli: pcp_eval --diagnose prints the error budget, a missing --input e
                                       "' --input '" + (dir / "c.ply").string() + "'");
     CHECK(no_diagnose.exit_code == 2);
     CHECK(no_diagnose.err.find("--diagnose") != std::string::npos);
+}
+
 TEST_CASE("cli: pcp_render draws meshes and clouds into one PNG, names bad inputs, never overwrites an input", "[cli]") {
     const fs::path dir = case_dir("render");
     const fs::path mesh = dir / "sphere.ply", cloud = dir / "cloud.xyz", ply_cloud = dir / "cloud.ply", out = dir / "view.png";
