@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
 # run_benchmarks.sh: the one command that writes the benchmark tables of docs/BENCHMARKS.md (issue 6).
 # For every case of the data MANIFEST.tsv that has a ground-truth mesh it runs pcp_reconstruct and
-# the Poisson baseline (bench/poisson_baseline.cpp) on the same input, each under GNU
+# the Poisson baselines on the same input: CGAL's (bench/poisson_baseline.cpp) and, where
+# pcp_poisson_open3d is built, Open3D's screened Poisson at depths 8, 9 and 10
+# (bench/poisson_open3d.cpp); per case the best baseline (lowest L2-CD) is the one PCP is compared
+# with, each under GNU
 # `/usr/bin/time -v` (wall time, peak RSS), evaluates both meshes with pcp_eval under the p2s and
 # shapenet protocols (with the floor: ground truth against itself), and writes one generated
 # section between the markers below into the Markdown file, replacing the previous one and leaving
 # the rest of the file untouched (written atomically: temp file + mv, after every case). After each
 # case's runs, pcp_render draws one picture of it next to its meshes, OUT/<case>/<case>.png (columns
-# input, PCP, Poisson, ground truth; a mesh that was not made is left out; a failed or missing
+# input, PCP, the best Poisson, ground truth; a mesh that was not made is left out; a failed or missing
 # pcp_render is a warning, never a failed benchmark). Shared
 # functions (manifest, cases, commands, time reports, machine line): bench/lib_bench.sh.
 #
@@ -21,13 +24,13 @@
 #                     ${TMPDIR:-/tmp}; never inside the repository)
 #   --markdown FILE   file that receives the generated section (default: <repo>/docs/BENCHMARKS.md)
 #   --bin DIR         where pcp_reconstruct, pcp_poisson_baseline, pcp_eval (and pcp_render, for the
-#                     pictures) are (default: <repo>/build/bin)
+#                     pictures; pcp_poisson_open3d, optional) are (default: <repo>/build/bin)
 #   --lock FILE       run every measured command under `flock FILE` (e.g. /tmp/pcp_build.lock), so
 #                     other jobs can run between commands but never during one
 #   --dry-run         print the commands only; run nothing, write nothing
 #   -h, --help        this text
 # Commands run one at a time (every run uses all cores). Build first with -DPCP_BUILD_BENCH=ON:
-#   cmake --build build --target pcp_reconstruct pcp_eval pcp_poisson_baseline pcp_render
+#   cmake --build build --target pcp_reconstruct pcp_eval pcp_poisson_baseline pcp_render pcp_poisson_open3d
 # Exit status: 0 all runs succeeded (cases with missing files are reported and skipped), 1 at least
 # one run or evaluation failed (its row says so; the other cases still run), 2 bad command line or
 # missing tools, 130 interrupted.
@@ -75,11 +78,13 @@ reconstruct="$bin_dir/pcp_reconstruct"
 poisson="$bin_dir/pcp_poisson_baseline"
 evaluate="$bin_dir/pcp_eval"
 render="$bin_dir/pcp_render"
+poisson_o3d="$bin_dir/pcp_poisson_open3d"
 if [ $dry_run -eq 0 ]; then
     for tool in "$reconstruct" "$poisson" "$evaluate"; do
         [ -x "$tool" ] || die_usage "missing $tool (configure with -DPCP_BUILD_BENCH=ON and build it)"
     done
     [ -x "$render" ] || echo "run_benchmarks: warning: missing $render: no pictures (build the pcp_render target)" >&2
+    [ -x "$poisson_o3d" ] || echo "run_benchmarks: warning: missing $poisson_o3d: CGAL's Poisson is the only baseline (apt-get install libopen3d-dev, build pcp_poisson_open3d)" >&2
     [ -x /usr/bin/time ] || die_usage "GNU time is needed as /usr/bin/time (Debian package 'time')"
     if [ -n "$lock_file" ]; then command -v flock >/dev/null || die_usage "--lock needs flock (util-linux)"; fi
 fi
@@ -111,13 +116,36 @@ read_eval_tsv() {
     done <"$file"
 }
 
-readonly METHODS=(pcp poisson)
+# The methods: PCP, then the baselines (CGAL's Poisson; Open3D's screened Poisson per depth where built).
+methods=(pcp poisson)
+if [ -x "$poisson_o3d" ]; then
+    for depth in 8 9 10; do methods+=("o3d_d$depth"); done
+fi
+readonly METHODS=("${methods[@]}")
+readonly BASELINES=("${METHODS[@]:1}")
 method_label() {
     case "$1" in
         pcp) echo "PCP (\`--preset $preset\`)" ;;
         poisson) echo "Poisson (CGAL, jet + MST normals)" ;;
+        o3d_d*) echo "screened Poisson (Open3D, depth ${1#o3d_d}, PCA-30 normals, tangent-plane orientation, 1 % density trim)" ;;
         floor) echo "floor (GT vs GT)" ;;
     esac
+}
+
+# best_baseline CASE : the evaluated baseline with the lowest L2-CD x 100 (p2s), or "-".
+best_baseline() {
+    local c=$1 m best=- best_value=
+    for m in "${BASELINES[@]}"; do
+        [ "$(get "$c|$m|status")" = ok ] || continue
+        local v
+        v=$(get "$c|$m|p2s.chamfer_l2_x100")
+        [ "$v" = - ] && continue
+        if [ -z "$best_value" ] || awk -v a="$v" -v b="$best_value" 'BEGIN { exit !(a + 0 < b + 0) }'; then
+            best=$m
+            best_value=$v
+        fi
+    done
+    echo "$best"
 }
 
 # run_case INDEX : both methods and their evaluations for one manifest row.
@@ -145,8 +173,10 @@ run_case() {
         if [ "$method" = pcp ]; then
             run_logged "$log" /usr/bin/time -v -o "$dir/$method.time" \
                 "$reconstruct" "$input" -o "$mesh" --preset "$preset" ${extra_args[@]+"${extra_args[@]}"}
-        else
+        elif [ "$method" = poisson ]; then
             run_logged "$log" /usr/bin/time -v -o "$dir/$method.time" "$poisson" "$input" "$mesh"
+        else
+            run_logged "$log" /usr/bin/time -v -o "$dir/$method.time" "$poisson_o3d" "$input" "$mesh" "${method#o3d_d}"
         fi
         rc=$?
         { [ $rc -eq 130 ] || [ $rc -eq 143 ]; } && [ $dry_run -eq 0 ] && { echo "run_benchmarks: interrupted" >&2; exit 130; }
@@ -179,12 +209,19 @@ run_case() {
     return 0
 }
 
-# render_case NAME DIR INPUT GT : DIR/NAME.png, the input, the meshes made and the ground truth side
-# by side (pcp_render). Never counts as a failure: a missing tool or a failed render is a warning.
+# render_case NAME DIR INPUT GT : DIR/NAME.png, the input, PCP's mesh, the best baseline's and the
+# ground truth side by side (pcp_render; a dry run lists every baseline). Never counts as a failure:
+# a missing tool or a failed render is a warning.
 render_case() {
-    local name=$1 dir=$2 input=$3 gt=$4 method rc labels
+    local name=$1 dir=$2 input=$3 gt=$4 method rc labels shown=(pcp)
     local files=("$input") names=(input)
-    for method in "${METHODS[@]}"; do
+    if [ $dry_run -eq 1 ]; then
+        shown+=("${BASELINES[@]}")
+    else
+        method=$(best_baseline "$name")
+        [ "$method" != - ] && shown+=("$method")
+    fi
+    for method in "${shown[@]}"; do
         if [ $dry_run -eq 1 ] || [ -s "$dir/$method.ply" ]; then
             files+=("$dir/$method.ply")
             names+=("$method")
@@ -208,12 +245,14 @@ render_case() {
 # ---- the Markdown section ----
 # num FORMAT VALUE and get KEY: bench/lib_bench.sh.
 
-# beats CASE : yes/no/- for "PCP has a lower L2-CD (p2s) and a higher NC (shapenet) than Poisson".
+# beats CASE : yes/no/- for "PCP has a lower L2-CD (p2s) and a higher NC (shapenet) than the best
+# baseline of the case".
 beats() {
-    local c=$1
-    [ "$(get "$c|pcp|status")" = ok ] && [ "$(get "$c|poisson|status")" = ok ] || { echo "-"; return; }
-    awk -v a="$(get "$c|pcp|p2s.chamfer_l2_x100")" -v b="$(get "$c|poisson|p2s.chamfer_l2_x100")" \
-        -v na="$(get "$c|pcp|shapenet.normal_consistency")" -v nb="$(get "$c|poisson|shapenet.normal_consistency")" \
+    local c=$1 b
+    b=$(best_baseline "$c")
+    [ "$(get "$c|pcp|status")" = ok ] && [ "$b" != - ] || { echo "-"; return; }
+    awk -v a="$(get "$c|pcp|p2s.chamfer_l2_x100")" -v b="$(get "$c|$b|p2s.chamfer_l2_x100")" \
+        -v na="$(get "$c|pcp|shapenet.normal_consistency")" -v nb="$(get "$c|$b|shapenet.normal_consistency")" \
         'BEGIN { if (a == "-" || b == "-" || na == "-" || nb == "-") print "-";
                  else if (a + 0 < b + 0 && na + 0 > nb + 0) print "yes"; else print "no" }'
 }
@@ -247,9 +286,12 @@ write_section() {
         echo "the paper's ABC/FAMOUS figure); CD-L1, normal consistency (NC) and F-scores at 0.002 and 0.004"
         echo "with the shapenet protocol (100,000 samples, same unit frame). The \"floor\" row is the ground"
         echo "truth sampled against itself with the same protocol and seed: no reconstruction can be"
-        echo "measured below it. \"PCP beats Poisson\": lower L2-CD x 100 (p2s) *and* higher NC."
+        echo "measured below it. The baselines: CGAL's Poisson and, where built, Open3D's screened Poisson at"
+        echo "depths 8, 9 and 10; per case the one with the lowest L2-CD x 100 is the *best baseline* (marked"
+        echo "in the table) and the one to beat. \"PCP beats the best baseline\": lower L2-CD x 100 (p2s) *and*"
+        echo "higher NC."
         echo
-        echo "| case | points | method | time s | peak MiB | L2-CD x 100 (p2s) | CD-L1 | NC | F@0.002 | F@0.004 | PCP beats Poisson |"
+        echo "| case | points | method | time s | peak MiB | L2-CD x 100 (p2s) | CD-L1 | NC | F@0.002 | F@0.004 | PCP beats the best baseline |"
         echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
         for i in "${selected[@]}"; do
             c=${names[$i]}
@@ -258,20 +300,24 @@ write_section() {
                 continue
             fi
             [ -n "${R[$c|pcp|status]+x}" ] || continue
+            local best
+            best=$(best_baseline "$c")
             for m in "${METHODS[@]}" floor; do
                 status=$(get "$c|$m|status")
-                local time rss b=""
+                local time rss b="" label
+                label=$(method_label "$m")
+                [ "$m" = "$best" ] && label="$label **(best baseline)**"
                 time=$(get "$c|$m|time"); rss=$(get "$c|$m|rss")
                 [ "$m" = pcp ] && b=$(beats "$c")
                 if [ "$m" = floor ]; then
                     [ -n "${R[$c|floor|p2s.chamfer_l2_x100]+x}${R[$c|floor|shapenet.chamfer_l1]+x}" ] || continue
                     time=""; rss=""
                 elif [ "$status" != ok ] && [[ "$status" != "eval failed"* ]]; then
-                    echo "| $c | ${npoints[$i]} | $(method_label "$m") | $status | $rss | - | - | - | - | - | $b |"
+                    echo "| $c | ${npoints[$i]} | $label | $status | $rss | - | - | - | - | - | $b |"
                     continue
                 fi
                 printf '| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n' "$c" "${npoints[$i]}" \
-                    "$(method_label "$m")" "$time" "$rss" \
+                    "$label" "$time" "$rss" \
                     "$(num %.4g "$(get "$c|$m|p2s.chamfer_l2_x100")")" \
                     "$(num %.5f "$(get "$c|$m|shapenet.chamfer_l1")")" \
                     "$(num %.3f "$(get "$c|$m|shapenet.normal_consistency")")" \
@@ -281,10 +327,11 @@ write_section() {
             done
         done
         echo
-        echo "Per family: mean over the cases where both methods produced a mesh and were evaluated; the"
+        echo "Per family: mean over the cases where PCP and at least one baseline produced a mesh and were"
+        echo "evaluated, against each case's best baseline; the"
         echo "paper's figures (L2-CD x 100, its tables on the ABC and FAMOUS sets) for orientation."
         echo
-        echo "| family | cases | PCP L2-CD x 100 | Poisson L2-CD x 100 | PCP NC | Poisson NC | PCP beats Poisson | paper: PCP | paper: Neural-Pull | paper: Poisson |"
+        echo "| family | cases | PCP L2-CD x 100 | best baseline L2-CD x 100 | PCP NC | best baseline NC | PCP beats the best baseline | paper: PCP | paper: Neural-Pull | paper: Poisson |"
         echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
         local families=() fam seen
         for i in "${selected[@]}"; do
@@ -297,11 +344,13 @@ write_section() {
             for i in "${selected[@]}"; do
                 [ "${categories[$i]}" = "$fam" ] || continue
                 c=${names[$i]}
-                [ "$(get "$c|pcp|status")" = ok ] && [ "$(get "$c|poisson|status")" = ok ] || continue
+                local bb
+                bb=$(best_baseline "$c")
+                [ "$(get "$c|pcp|status")" = ok ] && [ "$bb" != - ] || continue
                 n=$((n + 1))
                 [ "$(beats "$c")" = yes ] && wins=$((wins + 1))
-                sums+="$(get "$c|pcp|p2s.chamfer_l2_x100") $(get "$c|poisson|p2s.chamfer_l2_x100") "
-                sums+="$(get "$c|pcp|shapenet.normal_consistency") $(get "$c|poisson|shapenet.normal_consistency")"$'\n'
+                sums+="$(get "$c|pcp|p2s.chamfer_l2_x100") $(get "$c|$bb|p2s.chamfer_l2_x100") "
+                sums+="$(get "$c|pcp|shapenet.normal_consistency") $(get "$c|$bb|shapenet.normal_consistency")"$'\n'
             done
             case "$fam" in
                 abc) label="ABC (Points2Surf scans)"; paper="0.200 | 0.48 | 2.49" ;;

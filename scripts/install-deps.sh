@@ -5,7 +5,8 @@ set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config
           libeigen3-dev libcgal-dev libnanoflann-dev catch2 libcxxopts-dev time libpng-dev
           libopenblas-openmp-dev   # OpenBLAS: nn::gemm's default fp32 back end (PCP_BLAS=AUTO)
-          libdnnl-dev)             # oneDNN: the bf16 products of --precision bf16/auto (PCP_DNNL=AUTO)
+          libdnnl-dev              # oneDNN: the bf16 products of --precision bf16/auto (PCP_DNNL=AUTO)
+          libopen3d-dev)           # Open3D: the screened-Poisson baseline of the benchmarks (bench/poisson_open3d.cpp)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

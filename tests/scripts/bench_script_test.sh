@@ -80,7 +80,7 @@ echo mesh >"$2"
 EOF
     cat >"$work/bin/pcp_eval" <<'EOF'
 #!/usr/bin/env bash
-case "$1" in *pcp.ply) l2=0.25; nc=0.93 ;; *) l2=1.5; nc=0.71 ;; esac
+case "$1" in *pcp.ply) l2=0.25; nc=0.93 ;; *o3d_d9.ply) l2=0.8; nc=0.80 ;; *o3d_*) l2=1.2; nc=0.75 ;; *) l2=1.5; nc=0.71 ;; esac
 p=$4
 printf 'protocol\t%s\t-\nsamples\t10000\t-\nframe_scale\t1\t-\n' "$p"
 printf 'chamfer_l1\t0.0123\t0.002\nchamfer_l2\t0.0025\t4e-05\nchamfer_l2_x100\t%s\t0.004\n' "$l2"
@@ -141,6 +141,25 @@ EOF
     check "a failed picture does not fail the run" [ "$rc" -eq 0 ]
     check "failed picture warned" contains "$work/stderr" "warning: fine_case: pcp_render failed (exit 1, see $work/out3/fine_case/render.log); no picture"
     check "no picture left" [ ! -e "$work/out3/fine_case/fine_case.png" ]
+
+    # Fourth run: with Open3D's Poisson built, depths 8, 9 and 10 run; the best baseline (depth 9
+    # here, by the fake L2-CD) is marked, compared with PCP and drawn.
+    cp -r "$work/bin" "$work/bin4"
+    printf '#!/usr/bin/env bash\necho "depth $3" >"$2.depth"; echo mesh >"$2"\n' >"$work/bin4/pcp_poisson_open3d"
+    chmod +x "$work/bin4/pcp_poisson_open3d"
+    bash "$script" --manifest "$work/data/MANIFEST.tsv" --preset fast --out "$work/out4" \
+        --markdown "$md" --bin "$work/bin4" >"$work/stdout" 2>"$work/stderr"
+    rc=$?
+    cat "$work/stderr"
+    check "fourth run exits 0" [ "$rc" -eq 0 ]
+    for d in 8 9 10; do
+        check "Open3D at depth $d" contains "$work/out4/fine_case/o3d_d$d.ply.depth" "depth $d"
+    done
+    check "best baseline marked" contains "$md" "| screened Poisson (Open3D, depth 9, PCA-30 normals, tangent-plane orientation, 1 % density trim) **(best baseline)** |"
+    check "CGAL not marked" contains "$md" "| Poisson (CGAL, jet + MST normals) | "
+    check "summary against the best baseline" contains "$md" '| ABC (Points2Surf scans) | 1 | 0.25 | 0.8 | 0.930 | 0.800 | 1 of 1 |'
+    check "picture of input, PCP, the best baseline, GT" contains "$work/out4/fine_case/fine_case.png.args" \
+        "$work/out4/fine_case/pcp.ply $work/out4/fine_case/o3d_d9.ply $work/data/fine/gt.ply --labels input,pcp,o3d_d9,gt -o"
     ;;
 eval-tsv)
     [ -n "$bin" ] || { echo "eval-tsv needs BIN_DIR"; exit 2; }
