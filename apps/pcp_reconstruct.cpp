@@ -93,7 +93,14 @@ int main(int argc, char** argv) {
              cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.resolution)))
             ("sign-repair-parity", "Also flip coarse samples whose sign disagrees with at least this many of their 6 "
                                    "axis-ray parity votes (0 = off, 1..6; include/pcp/mesh/sign_repair.hpp)",
-             cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.parity_votes)));
+             cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.parity_votes)))
+            ("surface-fit", "on | off: remove mesh components with no input points near them and move the surface onto "
+                            "the data (not in the paper; include/pcp/mesh/surface_fit.hpp)",
+             cxxopts::value<std::string>()->default_value(d.surface_fit.enabled ? "on" : "off"))
+            ("surface-fit-iterations", "Rounds of the surface fit's move onto the data (0: the component filter only)",
+             cxxopts::value<int>()->default_value(std::to_string(d.surface_fit.iterations)))
+            ("keep-checkpoint", "Keep OUT.ckpt (the finished query network) and OUT.ckpt.prior, so that a run with --resume "
+                                "re-meshes without training again");
         options.parse_positional({"input"});
         pcp::cli::add_common_options(options);
         cxxopts::ParseResult args;
@@ -175,6 +182,15 @@ int main(int argc, char** argv) {
         if (args.count("sign-repair-resolution")) o.sign_repair.resolution = args["sign-repair-resolution"].as<int>();
         if (o.sign_repair.resolution < 2 || o.sign_repair.resolution > 256)
             throw pcp::cli::UsageError("--sign-repair-resolution must be in [2, 256]");
+        if (args.count("surface-fit")) {
+            const std::string v = args["surface-fit"].as<std::string>();
+            if (v != "on" && v != "off") throw pcp::cli::UsageError("--surface-fit must be on or off (got '" + v + "')");
+            o.surface_fit.enabled = v == "on";
+        }
+        if (args.count("surface-fit-iterations")) o.surface_fit.iterations = args["surface-fit-iterations"].as<int>();
+        if (o.surface_fit.iterations < 0 || o.surface_fit.iterations > 100)
+            throw pcp::cli::UsageError("--surface-fit-iterations must be in [0, 100]");
+        o.keep_checkpoints = args.count("keep-checkpoint") > 0;
         if (args.count("sign-repair-parity")) o.sign_repair.parity_votes = args["sign-repair-parity"].as<int>();
         if (o.sign_repair.parity_votes < 0 || o.sign_repair.parity_votes > 6)
             throw pcp::cli::UsageError("--sign-repair-parity must be in [0, 6]");
@@ -236,14 +252,15 @@ int main(int argc, char** argv) {
         wo.ascii = args.count("ascii") > 0;
         pcp::write_mesh(output, mesh, wo);
         std::error_code ec;
-        std::filesystem::remove(o.fit.schedule.checkpoint_path, ec);
+        if (!o.keep_checkpoints) std::filesystem::remove(o.fit.schedule.checkpoint_path, ec);
         std::ostringstream s;
         s << "wrote " << output << ": " << mesh.vertices.rows() << " vertices, " << mesh.faces.rows() << " faces, "
           << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "")
           << ", sign repair flipped " << report.sign_repair.flipped_components << " of " << report.sign_repair.components
           << " regions away from the data"
           << (o.sign_repair.parity_votes > 0 ? " and " + std::to_string(report.sign_repair.parity_flipped) + " coarse samples by parity" : std::string())
-          << "\n"
+          << ", surface fit removed " << report.surface_fit.removed_components << " of " << report.surface_fit.components
+          << " components (no input points near them)\n"
           << "| read " << fmt(t_read) << " s | denoise " << fmt(report.seconds_denoise) << " s (" << report.denoise_passes
           << " passes) | prior " << fmt(report.seconds_prior) << " s (loss " << fmt(report.prior_loss)
           << ") | query net " << fmt(report.seconds_fit) << " s (" << report.fit_steps << " steps, loss " << fmt(report.fit_loss)

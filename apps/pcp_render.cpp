@@ -130,6 +130,9 @@ int main(int argc, char** argv) {
             ("point-size", "Point splat side in pixels, in [1, 16]",
              cxxopts::value<int>()->default_value(std::to_string(defaults.point_size)))
             ("no-back-faces", "Shade back faces like front faces")
+            ("section", "Cut away what lies nearer to the camera than a plane at this depth from the scene's centre, as a "
+                        "fraction of its half-diagonal in [-1, 1] (0: through the centre), to show inner sheets",
+             cxxopts::value<double>())
             ("no-labels", "Draw no labels in the picture");
         options.parse_positional({"inputs"});
         pcp::cli::add_common_options(options);
@@ -151,6 +154,10 @@ int main(int argc, char** argv) {
         if (opts.point_size < 1 || opts.point_size > 16) throw pcp::cli::UsageError("--point-size must be in [1, 16]");
         opts.views = parse_views(args["views"].as<std::string>());
         opts.back_faces_distinct = !args.count("no-back-faces");
+        if (args.count("section")) {
+            opts.section = args["section"].as<double>();
+            if (!(opts.section >= -1 && opts.section <= 1)) throw pcp::cli::UsageError("--section must be in [-1, 1]");
+        }
         opts.labels = !args.count("no-labels");
         std::vector<std::string> labels;
         const std::string label_text = args["labels"].as<std::string>();

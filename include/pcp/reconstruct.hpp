@@ -10,6 +10,7 @@
 #include "pcp/core/types.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 #include "pcp/mesh/sign_repair.hpp"
+#include "pcp/mesh/surface_fit.hpp"
 #include "pcp/train/prior.hpp"
 #include "pcp/train/query_fit.hpp"
 
@@ -27,6 +28,11 @@ struct ReconstructOptions {
     double iso = 0.0;                ///< the level set extracted: F_g = iso (every mesh stage sees F_g - iso)
     SdfGridOptions grid;             ///< narrow-band settings
     SignRepairOptions sign_repair;   ///< flip regions whose sign the data does not support (not in the paper)
+    SurfaceFitOptions surface_fit;   ///< support filter and fit of the mesh onto the data (not in the paper)
+    /// With fit.schedule.checkpoint_path set: write the finished query network there and keep the
+    /// self-prior beside it (PATH.prior), so that a second call with fit.schedule.resume re-meshes
+    /// (other resolution, sign repair or surface fit) without training again.
+    bool keep_checkpoints = false;
     /// Evaluate the fitted SDF for meshing and for the sign repair with fp32 products even when
     /// the process runs bf16 (nn::set_gemm_precision; the training stays bf16). The grid is a small
     /// part of the time; bf16 rounding in the evaluation roughens the extracted surface. While it
@@ -40,6 +46,7 @@ struct ReconstructOptions {
 
 struct ReconstructReport {
     double seconds_denoise = 0, seconds_prior = 0, seconds_fit = 0, seconds_grid = 0, seconds_mesh = 0;
+    SurfaceFitStats surface_fit;     ///< what the surface fit removed and moved
     double prior_loss = 0, fit_loss = 0;
     std::int64_t fit_steps = 0;
     int denoise_passes = 0;          ///< passes applied to the input (DenoiseOptions; resolved when automatic)

@@ -1,14 +1,16 @@
 // The reconstruction pipeline (see pcp/reconstruct.hpp): denoise (optional) -> one PreparedCloud
 // -> prior (given, resumed beside the checkpoint, or trained on the cloud) -> query-network fit ->
 // sign decision on the grid box's boundary (samples there lie outside the shape: if most are
-// negative, the field is negated) -> sign repair -> narrow-band grid -> marching cubes -> input
-// frame. Every mesh stage sees F_g - iso and works at level 0.
+// negative, the field is negated) -> sign repair -> narrow-band grid -> marching cubes -> surface
+// fit (components away from the data removed, vertices moved onto the data) -> input frame. Every
+// mesh stage sees F_g - iso and works at level 0.
 #include "pcp/reconstruct.hpp"
 
 #include "pcp/cloud/prepared_cloud.hpp"
 #include "pcp/core/error.hpp"
 #include "pcp/mesh/marching_cubes.hpp"
 #include "pcp/mesh/mesh_check.hpp"
+#include "pcp/mesh/surface_fit.hpp"
 #include "pcp/nn/gemm.hpp"
 
 #include <algorithm>
@@ -126,6 +128,7 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
         r.cancelled = true;
         return Mesh{};
     }
+    if (options.keep_checkpoints && !ckpt.empty()) fitter.checkpoint(ckpt);
     r.fit_loss = fitter.recent_loss();
     r.fit_steps = fitter.steps_done();
     r.seconds_fit = seconds_since(t0);
@@ -172,14 +175,19 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     r.seconds_grid = seconds_since(t0);
 
     t0 = std::chrono::steady_clock::now();
-    const Mesh unit_mesh = marching_cubes(grid);
-    PCP_CHECK(unit_mesh.faces.rows() > 0, "reconstruction produced an empty mesh: the fitted SDF has no zero crossing "
-                                          "in the grid (train longer, or check the input)");
+    const Mesh mc_mesh = marching_cubes(grid);
+    PCP_CHECK(mc_mesh.faces.rows() > 0, "reconstruction produced an empty mesh: the fitted SDF has no zero crossing "
+                                        "in the grid (train longer, or check the input)");
+    SurfaceFitOptions fit_options = options.surface_fit;
+    if (r.denoise_passes > 0) fit_options.neighbors = fit_options.noisy_neighbors;  // a noisy cloud: average more points
+    const Mesh unit_mesh = fit_surface_to_points(mc_mesh, cloud.tree(), fit_options, &r.surface_fit);
+    PCP_CHECK(unit_mesh.faces.rows() > 0, "reconstruction produced no surface near the input points (every piece of "
+                                          "the fitted SDF's zero set lies away from the data)");
     Mesh mesh = cloud.normalization().from_unit(unit_mesh);
     r.closed = is_closed_and_oriented(mesh);
     r.seconds_mesh = seconds_since(t0);
     std::error_code ignored;
-    if (!prior_ckpt.empty()) std::filesystem::remove(prior_ckpt, ignored);
+    if (!prior_ckpt.empty() && !options.keep_checkpoints) std::filesystem::remove(prior_ckpt, ignored);
     return mesh;
 }
 

@@ -80,7 +80,7 @@ inline double edge(double ax, double ay, double bx, double by, double px, double
     return (bx - ax) * (py - ay) - (by - ay) * (px - ax);
 }
 
-void draw_mesh(Panel& panel, const Mesh& mesh, const Camera& cam, bool back_distinct) {
+void draw_mesh(Panel& panel, const Mesh& mesh, const Camera& cam, bool back_distinct, double cut_z) {
     const Eigen::Index nv = mesh.vertices.rows();
     // Projected vertices, V x 3: screen x, screen y, depth.
     std::vector<Eigen::Vector3d> s(static_cast<std::size_t>(nv));
@@ -90,6 +90,7 @@ void draw_mesh(Panel& panel, const Mesh& mesh, const Camera& cam, bool back_dist
         const auto ia = static_cast<std::size_t>(mesh.faces(f, 0)), ib = static_cast<std::size_t>(mesh.faces(f, 1)),
                    ic = static_cast<std::size_t>(mesh.faces(f, 2));
         const Eigen::Vector3d &a = s[ia], &b = s[ib], &c = s[ic];
+        if ((a.z() + b.z() + c.z()) / 3 > cut_z) continue;  // in front of the section plane
         double area = edge(a.x(), a.y(), b.x(), b.y(), c.x(), c.y());
         if (area == 0) continue;  // seen edge-on
         const Eigen::Vector3d v0 = mesh.vertices.row(static_cast<Eigen::Index>(ia)).transpose();
@@ -127,9 +128,10 @@ void draw_mesh(Panel& panel, const Mesh& mesh, const Camera& cam, bool back_dist
     }
 }
 
-void draw_points(Panel& panel, const Points& points, const Camera& cam, int point_size) {
+void draw_points(Panel& panel, const Points& points, const Camera& cam, int point_size, double cut_z) {
     for (Eigen::Index i = 0; i < points.rows(); ++i) {
         const Eigen::Vector3d p = cam.project(points.row(i).transpose());
+        if (p.z() > cut_z) continue;  // in front of the section plane
         // 0 at the nearest possible depth, 1 at the farthest.
         const double t = std::clamp((cam.radius - p.z()) / (2 * cam.radius), 0.0, 1.0);
         std::uint8_t colour[3];
@@ -244,6 +246,8 @@ Image render(const std::vector<RenderItem>& items, const RenderOptions& options)
     PCP_CHECK(options.point_size >= 1 && options.point_size <= 16,
               "render: point_size must be in [1, 16] (got " << options.point_size << ")");
     PCP_CHECK(options.margin >= 0 && options.margin <= 0.45, "render: margin must be in [0, 0.45] (got " << options.margin << ")");
+    PCP_CHECK(std::isnan(options.section) || (options.section >= -1 && options.section <= 1),
+              "render: section must be in [-1, 1] (got " << options.section << ")");
     for (const View& v : options.views)
         PCP_CHECK(std::isfinite(v.azimuth_deg) && std::isfinite(v.elevation_deg), "render: a view angle is not finite");
 
@@ -286,8 +290,9 @@ Image render(const std::vector<RenderItem>& items, const RenderOptions& options)
         const RenderItem& item = items[static_cast<std::size_t>(col)];
         const Camera cam = make_camera(options.views[static_cast<std::size_t>(row)], box, size, options.margin);
         Panel panel(&image, col * size, row * size, size);
-        if (item.mesh.faces.rows() > 0) draw_mesh(panel, item.mesh, cam, options.back_faces_distinct);
-        if (item.points.rows() > 0) draw_points(panel, item.points, cam, options.point_size);
+        const double cut_z = std::isfinite(options.section) ? options.section * cam.radius : std::numeric_limits<double>::infinity();
+        if (item.mesh.faces.rows() > 0) draw_mesh(panel, item.mesh, cam, options.back_faces_distinct, cut_z);
+        if (item.points.rows() > 0) draw_points(panel, item.points, cam, options.point_size, cut_z);
         if (options.labels && row == 0 && !item.label.empty()) {
             const int scale = std::max(1, size / 200);
             draw_text(image, col * size, 0, size, 4 * scale, 4 * scale, scale, item.label);

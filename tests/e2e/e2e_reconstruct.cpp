@@ -9,12 +9,38 @@
 
 #include <Eigen/Geometry>
 
+#include <filesystem>
+
 
 TEST_CASE("e2e: the default shape reconstructs closed, outward and close to its surface", "[e2e]") {
     const pcp::PointCloud cloud = pcp::sample_default_shape(10000, 0.002, 1);
     pcp::ReconstructReport report;
-    const pcp::Mesh mesh = pcp::reconstruct(cloud.points, nullptr, pcp::test::reduced_preset(), &report);
+    pcp::ReconstructOptions options = pcp::test::reduced_preset();
+    // Keep the finished networks, then re-mesh from them (ReconstructOptions::keep_checkpoints).
+    const std::filesystem::path dir = std::filesystem::path(PCP_TEST_TMP_DIR) / "e2e_keep_checkpoints";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    options.fit.schedule.checkpoint_path = (dir / "fit.ckpt").string();
+    options.keep_checkpoints = true;
+    const pcp::Mesh mesh = pcp::reconstruct(cloud.points, nullptr, options, &report);
     REQUIRE(mesh.faces.rows() > 0);
+    CHECK(std::filesystem::exists(dir / "fit.ckpt"));
+    CHECK(std::filesystem::exists(dir / "fit.ckpt.prior"));
+    {
+        pcp::ReconstructOptions again = options;
+        again.fit.schedule.resume = true;
+        pcp::ReconstructReport second;
+        const pcp::Mesh remeshed = pcp::reconstruct(cloud.points, nullptr, again, &second);
+        CHECK(second.prior_loss == 0);  // the kept self-prior was loaded, not trained
+        CHECK(second.fit_steps == report.fit_steps);
+        CHECK(remeshed.vertices == mesh.vertices);
+        CHECK(remeshed.faces == mesh.faces);
+        // The same networks without the surface fit: the marching-cubes mesh, a different one.
+        again.surface_fit.enabled = false;
+        const pcp::Mesh raw = pcp::reconstruct(cloud.points, nullptr, again, &second);
+        CHECK(raw.vertices.rows() > 0);
+        CHECK(!(raw.vertices.rows() == mesh.vertices.rows() && raw.vertices == mesh.vertices));
+    }
     const pcp::MeshTopology topo = pcp::mesh_topology(mesh);
     WARN("mesh: " << topo.V << " vertices, " << topo.F << " faces, edges not in two faces " << topo.edges_not_in_two_faces
                   << ", Euler characteristic " << topo.euler() << ", sign flipped " << report.sign_flipped

@@ -11,6 +11,7 @@
 #include "pcp/core/types.hpp"
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,11 @@ struct RenderOptions {
     int point_size = 2;                           ///< splat side in pixels, in [1, 16]
     bool labels = true;                           ///< draw each item's label in its first panel
     double margin = 0.04;                         ///< empty border as a fraction of the panel, in [0, 0.45]
+    /// A section: when finite, faces (by centroid) and points nearer to the camera than the plane
+    /// at this signed depth from the scene's centre (a fraction of the scene's half-diagonal, in
+    /// [-1, 1]; 0 cuts through the centre) are not drawn, so the inside shows: inner sheets and
+    /// the back faces of a cut closed surface (orange).
+    double section = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// An 8-bit RGB picture, rows top to bottom, 3 bytes per pixel.

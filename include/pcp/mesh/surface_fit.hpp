@@ -1,0 +1,65 @@
+// Surface fit: the extracted mesh brought onto the data it was made from (not in the paper).
+//
+// The zero level set of the fitted field carries the network's own error: ripples of a few tenths
+// of a point spacing on flat faces (the "roughness" of pcp_eval --diagnose), a small systematic
+// offset, and pieces of surface where the field crosses zero away from any input point (floating
+// components). Both are measured on the shared cases (docs/BENCHMARKS.md). This stage, run on the
+// marching-cubes mesh in the unit box, removes them using the input cloud only:
+//
+//  1. Support filter. A vertex is supported when an input point lies within support_k x scale
+//     (scale: the median over the input points of the distance to their 10th nearest point, about
+//     3.7 x the nearest-neighbour spacing of an even sampling, which the denoiser's collapsed
+//     pairs do not shrink; 0.8 x scale is pcp_eval --diagnose's 3 spacings). A connected component whose supported vertices are fewer than min_supported of its vertices
+//     has no data under it and is removed. Nothing else is removed.
+//  2. Normal mean-shift, `iterations` times. For each supported vertex v with unit normal n (area
+//     weighted, averaged over its one-ring) take its `neighbors` nearest input points p_i, their
+//     offsets o_i = (p_i - v) . n and distances d_i, h = the largest d_i and b = bandwidth x the
+//     10th smallest d_i. The new offset is the mode of the o_i nearest to 0 found by mean shift
+//     with weights exp(-(d_i/h)^2) exp(-((o_i - m)/b)^2): the average of the data of the vertex's
+//     own sheet, so noise averages out and the other side of a thin part (at an offset of its
+//     thickness) carries little weight. A move the data cannot tell from noise is shrunk
+//     (`shrink`). v moves by m along n (|m| <= h). Vertices with no input point within move_k x
+//     scale do not move along n.
+//  3. Then a tangential relaxation (a fraction `relax` of the one-ring Laplacian with its normal
+//     part removed) keeps the triangles well shaped without moving the surface.
+//
+// Topology is unchanged by steps 2-3 (vertices move, faces stay).
+#pragma once
+
+#include "pcp/cloud/kdtree.hpp"
+#include "pcp/core/types.hpp"
+
+#include <cstdint>
+
+namespace pcp {
+
+struct SurfaceFitOptions {
+    bool enabled = true;          ///< off: the mesh is returned as it is
+    double support_k = 0.8;       ///< support radius in units of the sampling scale (0.8: about 3 spacings of an even sampling)
+    double min_supported = 0.1;   ///< a component with fewer supported vertices than this fraction is removed
+    double move_k = 1.5;          ///< a vertex moves only when an input point lies within move_k x scale
+    int iterations = 10;          ///< normal mean-shift + relaxation rounds (0: support filter only)
+    /// Input points per vertex (>= 3). Measured on the shared cases (docs/BENCHMARKS.md): 16 on
+    /// clean clouds, 32 on noisy ones (the pipeline uses noisy_neighbors when it denoised the cloud).
+    int neighbors = 16;
+    int noisy_neighbors = 32;     ///< what pcp::reconstruct uses instead of `neighbors` for a denoised cloud
+    double bandwidth = 1.0;       ///< the offset kernel's width, in units of the vertex's distance to its 10th nearest point
+    double relax = 0.5;           ///< tangential relaxation per round, in [0, 1]
+    bool shrink = true;           ///< scale each move m by max(0, 1 - se^2 / m^2), se the standard error of the mean offset
+};
+
+struct SurfaceFitStats {
+    std::int64_t components = 0;          ///< connected components before the filter
+    std::int64_t removed_components = 0;  ///< removed by the support filter
+    std::int64_t removed_faces = 0;
+    std::int64_t supported_vertices = 0;  ///< of the kept mesh
+    double mean_shift = 0;                ///< mean |m| of the last round (unit-box units)
+    double spacing = 0;                   ///< the cloud's sampling scale (median distance to the 10th nearest point)
+};
+
+/// The mesh after the support filter and the fit (see above). `unit_mesh` and `cloud` are in the
+/// same frame (the unit box). Throws pcp::Error for bad options or a face index out of range.
+Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const SurfaceFitOptions& options = {},
+                           SurfaceFitStats* stats = nullptr);
+
+}  // namespace pcp

@@ -1,0 +1,227 @@
+// Surface fit: support filter, normal mean-shift onto the data, tangential relaxation (see
+// include/pcp/mesh/surface_fit.hpp).
+#include "pcp/mesh/surface_fit.hpp"
+
+#include "pcp/core/error.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <vector>
+
+namespace pcp {
+namespace {
+
+/// Vertex -> neighbouring vertices (through edges of faces), compressed rows.
+struct OneRing {
+    std::vector<std::int64_t> start;  ///< V + 1
+    std::vector<std::int32_t> ids;
+
+    explicit OneRing(const Mesh& mesh) {
+        const Eigen::Index V = mesh.vertices.rows();
+        std::vector<std::vector<std::int32_t>> adj(static_cast<std::size_t>(V));
+        for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+            for (int k = 0; k < 3; ++k) {
+                const std::int32_t a = mesh.faces(f, k), b = mesh.faces(f, (k + 1) % 3);
+                if (a == b) continue;
+                adj[static_cast<std::size_t>(a)].push_back(b);
+                adj[static_cast<std::size_t>(b)].push_back(a);
+            }
+        start.assign(static_cast<std::size_t>(V) + 1, 0);
+        for (Eigen::Index v = 0; v < V; ++v) {
+            auto& a = adj[static_cast<std::size_t>(v)];
+            std::sort(a.begin(), a.end());
+            a.erase(std::unique(a.begin(), a.end()), a.end());
+            start[static_cast<std::size_t>(v) + 1] = start[static_cast<std::size_t>(v)] + static_cast<std::int64_t>(a.size());
+        }
+        ids.reserve(static_cast<std::size_t>(start.back()));
+        for (const auto& a : adj) ids.insert(ids.end(), a.begin(), a.end());
+    }
+};
+
+std::int32_t find_root(std::vector<std::int32_t>& parent, std::int32_t a) {
+    while (parent[static_cast<std::size_t>(a)] != a) a = parent[static_cast<std::size_t>(a)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(a)])];
+    return a;
+}
+
+/// Area-weighted vertex normals, averaged once over the one-ring, unit length (zero where undefined).
+Points vertex_normals(const Mesh& mesh, const OneRing& ring) {
+    const Eigen::Index V = mesh.vertices.rows();
+    Points n = Points::Zero(V, 3);
+    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
+        const Eigen::RowVector3d a = mesh.vertices.row(mesh.faces(f, 0)), b = mesh.vertices.row(mesh.faces(f, 1)),
+                                 c = mesh.vertices.row(mesh.faces(f, 2));
+        const Eigen::RowVector3d fn = (b - a).cross(c - a);  // twice the area times the unit normal
+        for (int k = 0; k < 3; ++k) n.row(mesh.faces(f, k)) += fn;
+    }
+    Points s = n;
+#pragma omp parallel for schedule(static)
+    for (Eigen::Index v = 0; v < V; ++v)
+        for (std::int64_t e = ring.start[static_cast<std::size_t>(v)]; e < ring.start[static_cast<std::size_t>(v) + 1]; ++e)
+            s.row(v) += n.row(ring.ids[static_cast<std::size_t>(e)]);
+    for (Eigen::Index v = 0; v < V; ++v) {
+        const double len = s.row(v).norm();
+        s.row(v) = len > 0 ? Eigen::RowVector3d(s.row(v) / len) : Eigen::RowVector3d::Zero();
+    }
+    return s;
+}
+
+/// The median over the points of the distance to their 10th nearest point (itself excluded):
+/// a sampling scale that duplicates and the denoiser's collapsed pairs do not shrink.
+double sampling_scale(const KdTree& tree) {
+    Eigen::VectorXf d = tree.kth_distance(tree.points(), static_cast<int>(std::min<Eigen::Index>(11, tree.size())));
+    float* mid = d.data() + d.size() / 2;
+    std::nth_element(d.data(), mid, d.data() + d.size());
+    return static_cast<double>(*mid);
+}
+
+}  // namespace
+
+Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const SurfaceFitOptions& options,
+                           SurfaceFitStats* stats) {
+    PCP_CHECK(options.support_k > 0 && options.move_k > 0, "surface fit: support_k and move_k must be > 0");
+    PCP_CHECK(options.min_supported >= 0 && options.min_supported <= 1, "surface fit: min_supported must be in [0, 1]");
+    PCP_CHECK(options.iterations >= 0 && options.iterations <= 100, "surface fit: iterations must be in [0, 100]");
+    PCP_CHECK(options.neighbors >= 3 && options.noisy_neighbors >= 3, "surface fit: neighbors and noisy_neighbors must be >= 3");
+    PCP_CHECK(options.bandwidth > 0, "surface fit: bandwidth must be > 0");
+    PCP_CHECK(options.relax >= 0 && options.relax <= 1, "surface fit: relax must be in [0, 1]");
+    PCP_CHECK(cloud.size() >= 2, "surface fit: the cloud needs at least two points");
+    const Eigen::Index V0 = unit_mesh.vertices.rows();
+    if (unit_mesh.faces.rows() > 0)
+        PCP_CHECK(unit_mesh.faces.minCoeff() >= 0 && unit_mesh.faces.maxCoeff() < V0, "surface fit: a face index is out of range");
+    SurfaceFitStats st;
+    if (!options.enabled || unit_mesh.faces.rows() == 0) {
+        if (stats) *stats = st;
+        return unit_mesh;
+    }
+    st.spacing = sampling_scale(cloud);
+    const double support = options.support_k * st.spacing;
+    const double reach = options.move_k * st.spacing;
+
+    // 1. Support filter over connected components (vertices joined by faces).
+    Eigen::VectorXf to_data;
+    cloud.nearest(unit_mesh.vertices.cast<float>(), &to_data);
+    std::vector<std::int32_t> parent(static_cast<std::size_t>(V0));
+    std::iota(parent.begin(), parent.end(), 0);
+    for (Eigen::Index f = 0; f < unit_mesh.faces.rows(); ++f)
+        for (int k = 1; k < 3; ++k) {
+            const std::int32_t a = find_root(parent, unit_mesh.faces(f, 0)), b = find_root(parent, unit_mesh.faces(f, k));
+            if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
+        }
+    std::vector<std::int64_t> total(static_cast<std::size_t>(V0), 0), supported(static_cast<std::size_t>(V0), 0);
+    std::vector<bool> used(static_cast<std::size_t>(V0), false);
+    for (Eigen::Index f = 0; f < unit_mesh.faces.rows(); ++f)
+        for (int k = 0; k < 3; ++k) used[static_cast<std::size_t>(unit_mesh.faces(f, k))] = true;
+    for (Eigen::Index v = 0; v < V0; ++v) {
+        if (!used[static_cast<std::size_t>(v)]) continue;
+        const std::int32_t r = find_root(parent, static_cast<std::int32_t>(v));
+        ++total[static_cast<std::size_t>(r)];
+        if (to_data(v) <= support) ++supported[static_cast<std::size_t>(r)];
+    }
+    std::vector<bool> keep_root(static_cast<std::size_t>(V0), false);
+    for (Eigen::Index v = 0; v < V0; ++v) {
+        if (total[static_cast<std::size_t>(v)] == 0) continue;
+        ++st.components;
+        const bool keep = static_cast<double>(supported[static_cast<std::size_t>(v)]) >=
+                          options.min_supported * static_cast<double>(total[static_cast<std::size_t>(v)]);
+        keep_root[static_cast<std::size_t>(v)] = keep;
+        if (!keep) ++st.removed_components;
+    }
+    Mesh mesh;
+    std::vector<std::int32_t> remap(static_cast<std::size_t>(V0), -1);
+    std::int32_t nv = 0;
+    for (Eigen::Index v = 0; v < V0; ++v)
+        if (used[static_cast<std::size_t>(v)] && keep_root[static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)))])
+            remap[static_cast<std::size_t>(v)] = nv++;
+    mesh.vertices.resize(nv, 3);
+    for (Eigen::Index v = 0; v < V0; ++v)
+        if (remap[static_cast<std::size_t>(v)] >= 0) mesh.vertices.row(remap[static_cast<std::size_t>(v)]) = unit_mesh.vertices.row(v);
+    std::vector<Eigen::Index> kept_faces;
+    for (Eigen::Index f = 0; f < unit_mesh.faces.rows(); ++f)
+        if (remap[static_cast<std::size_t>(unit_mesh.faces(f, 0))] >= 0) kept_faces.push_back(f);
+    st.removed_faces = unit_mesh.faces.rows() - static_cast<std::int64_t>(kept_faces.size());
+    mesh.faces.resize(static_cast<Eigen::Index>(kept_faces.size()), 3);
+    for (std::size_t i = 0; i < kept_faces.size(); ++i)
+        for (int k = 0; k < 3; ++k)
+            mesh.faces(static_cast<Eigen::Index>(i), k) = remap[static_cast<std::size_t>(unit_mesh.faces(kept_faces[i], k))];
+    if (mesh.faces.rows() == 0) {
+        if (stats) *stats = st;
+        return mesh;
+    }
+
+    // 2-3. Normal mean-shift onto the data, then tangential relaxation.
+    const OneRing ring(mesh);
+    const Eigen::Index V = mesh.vertices.rows();
+    const int K = static_cast<int>(std::min<Eigen::Index>(options.neighbors, cloud.size()));
+    const PointsF& pts = cloud.points();
+    NeighborIndices idx;
+    NeighborDistances dist;
+    for (int it = 0; it < options.iterations; ++it) {
+        const Points normals = vertex_normals(mesh, ring);
+        cloud.knn(mesh.vertices.cast<float>(), K, idx, dist);
+        Points moved = mesh.vertices;
+        double shift_sum = 0;
+        std::int64_t count = 0;
+#pragma omp parallel for schedule(static) reduction(+ : shift_sum, count)
+        for (Eigen::Index v = 0; v < V; ++v) {
+            const Eigen::RowVector3d n = normals.row(v);
+            if (dist(v, 0) > reach || n.squaredNorm() == 0) continue;
+            const double h = std::max<double>(dist(v, K - 1), 1e-12);
+            // The offset kernel's width follows the local sampling (10th neighbour), not the
+            // neighbourhood: a wider neighbourhood averages more noise without reaching across
+            // a thin part.
+            const double b = options.bandwidth * std::max<double>(dist(v, std::min(K, 10) - 1), 1e-12);
+            double m = 0, se2 = 0;
+            for (int round = 0; round < 8; ++round) {
+                double sw = 0, so = 0, soo = 0, sww = 0;
+                for (int j = 0; j < K; ++j) {
+                    const Eigen::RowVector3d p = pts.row(idx(v, j)).cast<double>();
+                    const double o = (p - mesh.vertices.row(v)).dot(n);
+                    const double dj = dist(v, j) / h, oj = (o - m) / b;
+                    const double w = std::exp(-dj * dj - oj * oj);
+                    sw += w;
+                    sww += w * w;
+                    so += w * o;
+                    soo += w * o * o;
+                }
+                if (!(sw > 1e-300)) break;
+                const double next = so / sw;
+                // Squared standard error of the weighted mean: variance / effective count.
+                se2 = std::max(0.0, soo / sw - next * next) * sww / (sw * sw);
+                const bool done = std::abs(next - m) < 1e-4 * h;
+                m = next;
+                if (done) break;
+            }
+            // Shrink a move the data cannot tell from its own noise (none on clean data).
+            if (options.shrink && m != 0) m *= std::max(0.0, 1.0 - se2 / (m * m));
+            m = std::clamp(m, -h, h);
+            moved.row(v) += m * n;
+            shift_sum += std::abs(m);
+            ++count;
+        }
+        st.mean_shift = count ? shift_sum / static_cast<double>(count) : 0.0;
+        st.supported_vertices = count;
+        mesh.vertices = moved;
+        if (options.relax > 0) {
+            const Points n2 = vertex_normals(mesh, ring);
+#pragma omp parallel for schedule(static)
+            for (Eigen::Index v = 0; v < V; ++v) {
+                const std::int64_t b0 = ring.start[static_cast<std::size_t>(v)], b1 = ring.start[static_cast<std::size_t>(v) + 1];
+                if (b1 == b0) continue;
+                Eigen::RowVector3d c = Eigen::RowVector3d::Zero();
+                for (std::int64_t e = b0; e < b1; ++e) c += mesh.vertices.row(ring.ids[static_cast<std::size_t>(e)]);
+                Eigen::RowVector3d l = c / static_cast<double>(b1 - b0) - mesh.vertices.row(v);
+                const Eigen::RowVector3d n = n2.row(v);
+                l -= l.dot(n) * n;
+                moved.row(v) = mesh.vertices.row(v) + options.relax * l;
+            }
+            mesh.vertices = moved;
+        }
+    }
+    if (stats) *stats = st;
+    return mesh;
+}
+
+}  // namespace pcp
