@@ -102,6 +102,24 @@ TEST_CASE("render: an inverted cube shows the back-face colour where the normal 
     CHECK(orange(sheet.pixel(32, 64 + 32)));
 }
 
+TEST_CASE("render: a section through a closed cube shows its inside in the back-face colour", "[render]") {
+    // Cut through the centre, the near half is gone and the camera looks at the inside of the far
+    // faces: back faces (orange). A section behind the whole cube leaves nothing; out of range throws.
+    pcp::RenderOptions opts;
+    opts.view_size = 64;
+    opts.section = 0;
+    const pcp::Image cut = pcp::render({{unit_cube(), {}, ""}}, opts);
+    for (int v = 0; v < 3; ++v) {
+        INFO("view " << v);
+        CHECK(orange(cut.pixel(32, v * 64 + 32)));
+    }
+    opts.section = -1;
+    const pcp::Image none = pcp::render({{unit_cube(), {}, ""}}, opts);
+    CHECK(same(none.pixel(32, 32), pcp::RenderPalette::background));
+    opts.section = 1.5;
+    CHECK_THROWS_AS(pcp::render({{unit_cube(), {}, ""}}, opts), pcp::Error);
+}
+
 TEST_CASE("render: points draw depth-coloured splats, items share one frame", "[render]") {
     pcp::Points pts(200, 3);
     for (int i = 0; i < 200; ++i) pts.row(i) << (i % 20) / 19.0, (i / 20) / 9.0, 0.5;
