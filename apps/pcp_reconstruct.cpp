@@ -94,6 +94,9 @@ int main(int argc, char** argv) {
             ("sign-repair-parity", "Also flip coarse samples whose sign disagrees with at least this many of their 6 "
                                    "axis-ray parity votes (0 = off, 1..6; include/pcp/mesh/sign_repair.hpp)",
              cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.parity_votes)))
+            ("fine-repair", "on | off: flip thin regions of the fine grid whose boundary is mostly a zero crossing away from "
+                            "the data (membranes across holes; not in the paper; include/pcp/mesh/fine_repair.hpp)",
+             cxxopts::value<std::string>()->default_value(d.fine_repair.enabled ? "on" : "off"))
             ("surface-fit", "on | off: remove mesh components with no input points near them and move the surface onto "
                             "the data (not in the paper; include/pcp/mesh/surface_fit.hpp)",
              cxxopts::value<std::string>()->default_value(d.surface_fit.enabled ? "on" : "off"))
@@ -182,6 +185,11 @@ int main(int argc, char** argv) {
         if (args.count("sign-repair-resolution")) o.sign_repair.resolution = args["sign-repair-resolution"].as<int>();
         if (o.sign_repair.resolution < 2 || o.sign_repair.resolution > 256)
             throw pcp::cli::UsageError("--sign-repair-resolution must be in [2, 256]");
+        if (args.count("fine-repair")) {
+            const std::string v = args["fine-repair"].as<std::string>();
+            if (v != "on" && v != "off") throw pcp::cli::UsageError("--fine-repair must be on or off (got '" + v + "')");
+            o.fine_repair.enabled = v == "on";
+        }
         if (args.count("surface-fit")) {
             const std::string v = args["surface-fit"].as<std::string>();
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--surface-fit must be on or off (got '" + v + "')");
@@ -259,6 +267,8 @@ int main(int argc, char** argv) {
           << ", sign repair flipped " << report.sign_repair.flipped_components << " of " << report.sign_repair.components
           << " regions away from the data"
           << (o.sign_repair.parity_votes > 0 ? " and " + std::to_string(report.sign_repair.parity_flipped) + " coarse samples by parity" : std::string())
+          << ", fine repair flipped " << report.fine_repair.flipped_components << " of " << report.fine_repair.components
+          << " thin regions" << (report.fine_repair.skipped ? " (skipped: grid too large)" : "")
           << ", surface fit removed " << report.surface_fit.removed_components << " of " << report.surface_fit.components
           << " components (no input points near them)\n"
           << "| read " << fmt(t_read) << " s | denoise " << fmt(report.seconds_denoise) << " s (" << report.denoise_passes

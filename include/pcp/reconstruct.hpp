@@ -8,6 +8,7 @@
 #include "pcp/cloud/denoise.hpp"
 #include "pcp/core/progress.hpp"
 #include "pcp/core/types.hpp"
+#include "pcp/mesh/fine_repair.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 #include "pcp/mesh/sign_repair.hpp"
 #include "pcp/mesh/surface_fit.hpp"
@@ -28,6 +29,7 @@ struct ReconstructOptions {
     double iso = 0.0;                ///< the level set extracted: F_g = iso (every mesh stage sees F_g - iso)
     SdfGridOptions grid;             ///< narrow-band settings
     SignRepairOptions sign_repair;   ///< flip regions whose sign the data does not support (not in the paper)
+    FineRepairOptions fine_repair;   ///< the sign repair's rule on the fine grid, for thin membranes (not in the paper)
     SurfaceFitOptions surface_fit;   ///< support filter and fit of the mesh onto the data (not in the paper)
     /// With fit.schedule.checkpoint_path set: write the finished query network there and keep the
     /// self-prior beside it (PATH.prior), so that a second call with fit.schedule.resume re-meshes
@@ -47,6 +49,7 @@ struct ReconstructOptions {
 struct ReconstructReport {
     double seconds_denoise = 0, seconds_prior = 0, seconds_fit = 0, seconds_grid = 0, seconds_mesh = 0;
     SurfaceFitStats surface_fit;     ///< what the surface fit removed and moved
+    FineRepairStats fine_repair;     ///< what the fine sign repair flipped
     double prior_loss = 0, fit_loss = 0;
     std::int64_t fit_steps = 0;
     int denoise_passes = 0;          ///< passes applied to the input (DenoiseOptions; resolved when automatic)

@@ -124,4 +124,12 @@ Eigen::VectorXf KdTree::kth_distance(const Eigen::Ref<const PointsF>& queries, i
     return result;
 }
 
+double sampling_scale(const KdTree& tree) {
+    if (tree.size() < 2) return 0;
+    Eigen::VectorXf d = tree.kth_distance(tree.points(), static_cast<int>(std::min<Eigen::Index>(11, tree.size())));
+    float* mid = d.data() + d.size() / 2;
+    std::nth_element(d.data(), mid, d.data() + d.size());
+    return static_cast<double>(*mid);
+}
+
 }  // namespace pcp

@@ -68,15 +68,6 @@ Points vertex_normals(const Mesh& mesh, const OneRing& ring) {
     return s;
 }
 
-/// The median over the points of the distance to their 10th nearest point (itself excluded):
-/// a sampling scale that duplicates and the denoiser's collapsed pairs do not shrink.
-double sampling_scale(const KdTree& tree) {
-    Eigen::VectorXf d = tree.kth_distance(tree.points(), static_cast<int>(std::min<Eigen::Index>(11, tree.size())));
-    float* mid = d.data() + d.size() / 2;
-    std::nth_element(d.data(), mid, d.data() + d.size());
-    return static_cast<double>(*mid);
-}
-
 }  // namespace
 
 Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const SurfaceFitOptions& options,

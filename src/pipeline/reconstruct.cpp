@@ -1,9 +1,9 @@
 // The reconstruction pipeline (see pcp/reconstruct.hpp): denoise (optional) -> one PreparedCloud
 // -> prior (given, resumed beside the checkpoint, or trained on the cloud) -> query-network fit ->
 // sign decision on the grid box's boundary (samples there lie outside the shape: if most are
-// negative, the field is negated) -> sign repair -> narrow-band grid -> marching cubes -> surface
-// fit (components away from the data removed, vertices moved onto the data) -> input frame. Every
-// mesh stage sees F_g - iso and works at level 0.
+// negative, the field is negated) -> sign repair -> narrow-band grid -> fine sign repair ->
+// marching cubes -> surface fit (components away from the data removed, vertices moved onto the
+// data) -> input frame. Every mesh stage sees F_g - iso and works at level 0.
 #include "pcp/reconstruct.hpp"
 
 #include "pcp/cloud/prepared_cloud.hpp"
@@ -169,8 +169,10 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     };
     SdfGridOptions go = options.grid;
     go.progress = chain(go.progress, options.progress);
-    const SdfGrid grid = go.band == NarrowBand::NearPoints ? evaluate_sdf_grid(field, spec, go, cloud.unit())
-                                                           : evaluate_sdf_grid(field, spec, go);
+    SdfGrid grid = go.band == NarrowBand::NearPoints ? evaluate_sdf_grid(field, spec, go, cloud.unit())
+                                                     : evaluate_sdf_grid(field, spec, go);
+    // Membranes and bubbles too thin for the coarse grid (include/pcp/mesh/fine_repair.hpp).
+    r.fine_repair = repair_fine_grid(grid, cloud.tree(), options.fine_repair);
     r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations;
     r.seconds_grid = seconds_since(t0);
 

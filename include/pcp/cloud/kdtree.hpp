@@ -50,4 +50,9 @@ private:
     std::unique_ptr<Impl> impl_;
 };
 
+/// A sampling scale of the tree's cloud: the median over its points of the distance to their 10th
+/// nearest other point (about 3.7 x the nearest-neighbour spacing of an even sampling; duplicates
+/// and the denoiser's collapsed pairs do not shrink it). 0 for fewer than 2 points.
+double sampling_scale(const KdTree& tree);
+
 }  // namespace pcp
