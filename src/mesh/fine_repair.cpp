@@ -11,26 +11,14 @@
 
 namespace pcp {
 
-FineRepairStats repair_fine_grid(SdfGrid& grid, const KdTree& cloud, const FineRepairOptions& options) {
-    PCP_CHECK(options.near_k > 0 && options.near_cells >= 0, "fine repair: near_k must be > 0 and near_cells >= 0");
-    PCP_CHECK(options.max_unsupported >= 0 && options.max_unsupported < 1, "fine repair: max_unsupported must be in [0, 1)");
-    PCP_CHECK(cloud.size() >= 2, "fine repair: the cloud needs at least two points");
-    FineRepairStats st;
-    if (!options.enabled || grid.num_blocks() == 0) return st;
-    const int R = grid.spec.resolution, n1 = R + 1, B = grid.block_cells, S = B + 1;
-    const std::int64_t total = std::int64_t(n1) * n1 * n1;
-    if (total > options.max_samples) {
-        st.skipped = true;
-        return st;
-    }
-    st.tau = std::max(options.near_k * sampling_scale(cloud), options.near_cells * grid.spec.spacing().norm());
-    auto index = [n1](std::int64_t i, std::int64_t j, std::int64_t k) { return (k * n1 + j) * n1 + i; };
-    const std::int64_t per_block = std::int64_t(S) * S * S;
-    const int nb = grid.blocks_per_axis;
+namespace {
 
-    // Signs of the stored lattice points (0: not stored), and their list.
-    std::vector<std::int8_t> sign(static_cast<std::size_t>(total), 0);
-    std::vector<std::int64_t> stored;
+/// Calls fn(value, lattice index) for every stored, non-NaN sample of every block of `grid` (a
+/// sample shared by several blocks once per block that stores it).
+template <class Fn>
+void for_each_stored_sample(SdfGrid& grid, Fn&& fn) {
+    const int R = grid.spec.resolution, n1 = R + 1, B = grid.block_cells, S = B + 1, nb = grid.blocks_per_axis;
+    const std::int64_t per_block = std::int64_t(S) * S * S;
     for (int b = 0; b < grid.num_blocks(); ++b) {
         const std::int64_t key = grid.block_keys[static_cast<std::size_t>(b)];
         const int bx = int(key % nb), by = int((key / nb) % nb), bz = int(key / (std::int64_t(nb) * nb));
@@ -39,14 +27,38 @@ FineRepairStats repair_fine_grid(SdfGrid& grid, const KdTree& cloud, const FineR
                 for (int x = 0; x < S; ++x) {
                     const std::int64_t i = std::int64_t(bx) * B + x, j = std::int64_t(by) * B + y, k = std::int64_t(bz) * B + z;
                     if (i > R || j > R || k > R) continue;
-                    const float v = grid.values[static_cast<std::size_t>(b * per_block + (std::int64_t(z) * S + y) * S + x)];
+                    float& v = grid.values[static_cast<std::size_t>(b * per_block + (std::int64_t(z) * S + y) * S + x)];
                     if (std::isnan(v)) continue;
-                    const std::int64_t g = index(i, j, k);
-                    if (sign[static_cast<std::size_t>(g)] != 0) continue;  // shared with a block seen before
-                    sign[static_cast<std::size_t>(g)] = v < 0 ? -1 : 1;
-                    stored.push_back(g);
+                    fn(v, (k * n1 + j) * n1 + i);
                 }
     }
+}
+
+}  // namespace
+
+FineRepairStats repair_fine_grid(SdfGrid& grid, const KdTree& cloud, const FineRepairOptions& options) {
+    PCP_CHECK(options.near_k > 0 && options.near_cells >= 0, "fine repair: near_k must be > 0 and near_cells >= 0");
+    PCP_CHECK(options.max_unsupported >= 0 && options.max_unsupported < 1, "fine repair: max_unsupported must be in [0, 1)");
+    PCP_CHECK(cloud.size() >= 2, "fine repair: the cloud needs at least two points");
+    FineRepairStats st;
+    if (!options.enabled || grid.num_blocks() == 0) return st;
+    const int R = grid.spec.resolution, n1 = R + 1;
+    const std::int64_t total = std::int64_t(n1) * n1 * n1;
+    if (total > options.max_samples) {
+        st.skipped = true;
+        return st;
+    }
+    st.tau = std::max(options.near_k * sampling_scale(cloud), options.near_cells * grid.spec.spacing().norm());
+    auto index = [n1](std::int64_t i, std::int64_t j, std::int64_t k) { return (k * n1 + j) * n1 + i; };
+
+    // Signs of the stored lattice points (0: not stored), and their list.
+    std::vector<std::int8_t> sign(static_cast<std::size_t>(total), 0);
+    std::vector<std::int64_t> stored;
+    for_each_stored_sample(grid, [&](const float& v, std::int64_t g) {
+        if (sign[static_cast<std::size_t>(g)] != 0) return;  // shared with a block seen before
+        sign[static_cast<std::size_t>(g)] = v < 0 ? -1 : 1;
+        stored.push_back(g);
+    });
 
     // Near the data: distance from each stored lattice point to the cloud.
     std::vector<std::int8_t> near(static_cast<std::size_t>(total), 0);
@@ -108,20 +120,10 @@ FineRepairStats repair_fine_grid(SdfGrid& grid, const KdTree& cloud, const FineR
     if (st.flipped_components == 0) return st;
 
     // Negate the flipped components' values in every block that stores them.
-    for (int b = 0; b < grid.num_blocks(); ++b) {
-        const std::int64_t key = grid.block_keys[static_cast<std::size_t>(b)];
-        const int bx = int(key % nb), by = int((key / nb) % nb), bz = int(key / (std::int64_t(nb) * nb));
-        for (int z = 0; z < S; ++z)
-            for (int y = 0; y < S; ++y)
-                for (int x = 0; x < S; ++x) {
-                    const std::int64_t i = std::int64_t(bx) * B + x, j = std::int64_t(by) * B + y, k = std::int64_t(bz) * B + z;
-                    if (i > R || j > R || k > R) continue;
-                    float& v = grid.values[static_cast<std::size_t>(b * per_block + (std::int64_t(z) * S + y) * S + x)];
-                    if (std::isnan(v)) continue;
-                    const std::int32_t c = comp[static_cast<std::size_t>(index(i, j, k))];
-                    if (c >= 0 && flip[static_cast<std::size_t>(c)]) v = v == 0.0f ? -std::numeric_limits<float>::min() : -v;
-                }
-    }
+    for_each_stored_sample(grid, [&](float& v, std::int64_t g) {
+        const std::int32_t c = comp[static_cast<std::size_t>(g)];
+        if (c >= 0 && flip[static_cast<std::size_t>(c)]) v = v == 0.0f ? -std::numeric_limits<float>::min() : -v;
+    });
     for (const std::int64_t g : stored) {
         const std::int32_t c = comp[static_cast<std::size_t>(g)];
         if (c >= 0 && flip[static_cast<std::size_t>(c)]) ++st.flipped_samples;
