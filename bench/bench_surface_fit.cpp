@@ -46,10 +46,10 @@ int main(int argc, char** argv) {
         const pcp::Mesh fitted = pcp::fit_surface_to_points(unit, cloud.tree(), o, &st);
         const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         pcp::write_mesh(argv[3], cloud.normalization().from_unit(fitted));
-        std::printf("components %lld removed %lld (faces %lld) supported_vertices %lld mean_shift %.3g spacing %.3g time %.2f s\n",
+        std::printf("components %lld removed %lld (faces %lld) supported_vertices %lld mean_shift %.3g scale %.3g time %.2f s\n",
                     static_cast<long long>(st.components), static_cast<long long>(st.removed_components),
                     static_cast<long long>(st.removed_faces), static_cast<long long>(st.supported_vertices), st.mean_shift,
-                    st.spacing, secs);
+                    st.scale, secs);
         return 0;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "bench_surface_fit: %s\n", e.what());

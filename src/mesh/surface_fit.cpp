@@ -87,9 +87,9 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
         if (stats) *stats = st;
         return unit_mesh;
     }
-    st.spacing = sampling_scale(cloud);
-    const double support = options.support_k * st.spacing;
-    const double reach = options.move_k * st.spacing;
+    st.scale = sampling_scale(cloud);
+    const double support = options.support_k * st.scale;
+    const double reach = options.move_k * st.scale;
 
     // 1. Support filter over connected components (vertices joined by faces).
     Eigen::VectorXf to_data;

@@ -9,7 +9,8 @@
 //  1. Support filter. A vertex is supported when an input point lies within support_k x scale
 //     (scale: the median over the input points of the distance to their 10th nearest point, about
 //     3.7 x the nearest-neighbour spacing of an even sampling, which the denoiser's collapsed
-//     pairs do not shrink; 0.8 x scale is pcp_eval --diagnose's 3 spacings). A connected component whose supported vertices are fewer than min_supported of its vertices
+//     pairs do not shrink; 0.8 x scale is pcp_eval --diagnose's 3 spacings). A connected component
+//     whose supported vertices are fewer than min_supported of its vertices
 //     has no data under it and is removed. Nothing else is removed.
 //  2. Normal mean-shift, `iterations` times. For each supported vertex v with unit normal n (area
 //     weighted, averaged over its one-ring) take its `neighbors` nearest input points p_i, their
@@ -52,9 +53,9 @@ struct SurfaceFitStats {
     std::int64_t components = 0;          ///< connected components before the filter
     std::int64_t removed_components = 0;  ///< removed by the support filter
     std::int64_t removed_faces = 0;
-    std::int64_t supported_vertices = 0;  ///< of the kept mesh
+    std::int64_t supported_vertices = 0;  ///< vertices within move_k x scale of the data (those the last round moved)
     double mean_shift = 0;                ///< mean |m| of the last round (unit-box units)
-    double spacing = 0;                   ///< the cloud's sampling scale (median distance to the 10th nearest point)
+    double scale = 0;                     ///< the cloud's sampling scale (pcp::sampling_scale)
 };
 
 /// The mesh after the support filter and the fit (see above). `unit_mesh` and `cloud` are in the
