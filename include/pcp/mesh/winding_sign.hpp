@@ -1,0 +1,108 @@
+// Winding-number sign: the inside/outside of the fitted field decided away from the data by the
+// generalised winding number of the input points, oriented by the field itself (not in the paper).
+//
+// The pulling loss fixes |F| and the direction of its gradient near the data, never the sign of a
+// region (sign_repair.hpp): a fitted field may leave a layer of the wrong sign under the surface (an
+// inner sheet), a plug of "inside" across a through-hole, or a bubble. Those are decided here by a
+// global, hole-tolerant vote instead of a local one:
+//
+//  1. Oriented normals. Each input point gets its PCA normal (normal_k neighbours) and a vote of
+//     the field on its orientation: s = sum over k in {1, 2, 4} of (F(p + k h n) - F(p - k h n)) / (k h)
+//     weighted 1, 1/2, 1/4 and scaled so that a signed distance growing along n votes 1, with
+//     h = probe x scale, or noise_probe standard deviations of the neighbours along the normal when
+//     that is more. A point where |F| exceeds max(zero_set x scale, h) is not on the field's zero
+//     set and does not vote. Where the field is right near the data (what the pulling loss trains)
+//     the vote gives the outward normal, whatever F does further away. Points whose vote is weak
+//     (|s| < confident_vote: the field is flat or unsigned there, as across a plugged hole) take the
+//     orientation of their neighbours, spread best-first (most parallel normals first) from the
+//     confident points. When fewer than min_confident of the points vote confidently (a very noisy
+//     cloud, whose field is flat across the noise band) nothing is corrected (stats.skipped).
+//     When the oriented points enclose a negative volume (the field is negative outside), every
+//     normal is turned, so that w below is 1 inside whatever the field's convention.
+//  2. The generalised winding number of the oriented points (Barill et al. 2018, for point clouds):
+//     w(q) = sum_i a_i n_i . (p_i - q) / (4 pi |p_i - q|^3), a_i = pi r_i^2 with r_i the distance to
+//     the 8th nearest other point over sqrt(8) (the share of the surface one point stands for).
+//     About 1 inside a closed surface and 0 outside; a hole in the data only blurs it near the hole.
+//     Evaluated by a Barnes-Hut tree (first-order dipoles, opening ratio `opening`).
+//  3. apply(): a value of the field at a point farther than tau = near_k x sampling_scale from every
+//     input point is given the sign the winding number says when it is clear (w > 0.5 + margin:
+//     inside, negative; w < 0.5 - margin: outside, positive); |F| is unchanged. Nearer the data, and
+//     where w is unclear, the field keeps its own sign, so the surface through the data stays where
+//     F puts it.
+#pragma once
+
+#include "pcp/cloud/kdtree.hpp"
+#include "pcp/core/types.hpp"
+#include "pcp/mesh/sdf_grid.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <memory>
+
+namespace pcp {
+
+struct WindingSignOptions {
+    bool enabled = false;   ///< off (the default: measured in docs/BENCHMARKS.md): apply() is the identity, nothing is computed
+    int normal_k = 16;      ///< neighbours of the PCA normal (3..64)
+    double probe = 0.25;    ///< orientation probe step h in units of the sampling scale (> 0)
+    double noise_probe = 3.0;  ///< ... or this many standard deviations of the points along the normal, when more
+    double zero_set = 0.25;  ///< a point votes only when |F| there is at most this (units of the sampling scale)
+    double confident_vote = 0.5;  ///< a point whose vote is below this (1: a signed distance) takes its neighbours' orientation
+    double min_confident = 0.5;   ///< fewer confident points than this fraction: the field cannot orient the cloud, nothing is corrected
+    double near_k = 0.4;    ///< tau in units of the sampling scale (0.4: about 1.5 spacings of an even sampling)
+    double margin = 0.2;    ///< the winding number decides where |w - 0.5| > margin (0..0.5)
+    double opening = 3.0;   ///< Barnes-Hut: a node is one dipole when its distance > opening x its radius (>= 1)
+};
+
+struct WindingSignStats {
+    std::int64_t points = 0;             ///< oriented input points
+    std::int64_t confident = 0;          ///< of which with a confident vote of their own
+    bool skipped = false;                ///< too few confident votes (min_confident): apply() is the identity
+    std::int64_t weak_orientation = 0;   ///< of which oriented by their neighbours (their own vote below confident_vote)
+    std::int64_t against_own_vote = 0;   ///< of which oriented against the sign of their own vote
+    bool inward = false;                 ///< the field oriented the normals inward (negative outside): all were turned
+    double tau = 0;                      ///< the distance beyond which the winding number decides
+    double seconds = 0;                  ///< normals, orientation and tree
+};
+
+/// The winding-number sign correction of one field over one cloud. Default-constructed: the identity.
+class WindingSign {
+public:
+    WindingSign();
+    /// Orients the cloud's normals by `field` (thread-safe batches, unit-box coordinates, negative
+    /// inside) and builds the winding-number tree. `cloud`: the input in the same frame, N >= normal_k + 1.
+    /// Throws pcp::Error on bad options, too few points or a non-finite field value.
+    WindingSign(const SdfBatchFn& field, const KdTree& cloud, const WindingSignOptions& options = {});
+    ~WindingSign();
+    WindingSign(WindingSign&&) noexcept;
+    WindingSign& operator=(WindingSign&&) noexcept;
+
+    /// values(i) = field at points.row(i), its sign corrected in place where the winding number
+    /// decides (see above). Thread-safe.
+    void apply(const Eigen::Ref<const PointsF>& points, Eigen::Ref<Eigen::VectorXf> values) const;
+
+    /// The generalised winding number at each row of `points` (N x 3). Thread-safe; not parallel.
+    Eigen::VectorXf winding(const Eigen::Ref<const PointsF>& points) const;
+
+    /// The oriented unit normals of the cloud's points (N x 3, same order as the tree's points).
+    const PointsF& normals() const;
+    /// The area each point stands for (N; a_i above).
+    const Eigen::VectorXf& areas() const;
+
+    const WindingSignStats& stats() const;
+    /// Field values whose sign apply() changed so far (all threads).
+    std::int64_t corrected() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+/// The generalised winding number of oriented points with per-point areas, by brute force (the
+/// reference of WindingSign's tree): w(q) = sum_i a_i n_i . (p_i - q) / (4 pi |p_i - q|^3).
+Eigen::VectorXf winding_number_brute_force(const Eigen::Ref<const PointsF>& points, const Eigen::Ref<const PointsF>& normals,
+                                           const Eigen::Ref<const Eigen::VectorXf>& areas,
+                                           const Eigen::Ref<const PointsF>& queries);
+
+}  // namespace pcp

@@ -1,0 +1,331 @@
+// Winding-number sign correction (see include/pcp/mesh/winding_sign.hpp).
+#include "pcp/mesh/winding_sign.hpp"
+
+#include "pcp/core/error.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <queue>
+#include <vector>
+
+namespace pcp {
+
+namespace {
+
+constexpr double kFourPi = 4.0 * 3.14159265358979323846;
+constexpr int kLeafSize = 8;
+
+/// A Barnes-Hut node: the points [begin, end) of the permuted order, their area-weighted centre,
+/// dipole sum_i a_i n_i and radius around the centre; children -1 for a leaf.
+struct Node {
+    Eigen::Vector3f centre = Eigen::Vector3f::Zero();
+    Eigen::Vector3f dipole = Eigen::Vector3f::Zero();
+    float radius = 0;
+    std::int32_t begin = 0, end = 0, left = -1, right = -1;
+};
+
+/// PCA normals (unit, unoriented) of every tree point from its k nearest points (also returned),
+/// and the spread of those points along the normal (the standard deviation: noise, or curvature).
+PointsF pca_normals(const KdTree& tree, int k, NeighborIndices& idx, Eigen::VectorXf& thickness) {
+    const PointsF& pts = tree.points();
+    NeighborDistances dist;
+    tree.knn(pts, k, idx, dist);
+    PointsF normals(pts.rows(), 3);
+    thickness.resize(pts.rows());
+#pragma omp parallel for schedule(static)
+    for (Eigen::Index i = 0; i < pts.rows(); ++i) {
+        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+        for (int j = 0; j < k; ++j) mean += pts.row(idx(i, j)).transpose().cast<double>();
+        mean /= k;
+        Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+        for (int j = 0; j < k; ++j) {
+            const Eigen::Vector3d d = pts.row(idx(i, j)).transpose().cast<double>() - mean;
+            cov += d * d.transpose();
+        }
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+        normals.row(i) = eig.eigenvectors().col(0).cast<float>().transpose();  // smallest eigenvalue first
+        thickness(i) = static_cast<float>(std::sqrt(std::max(0.0, eig.eigenvalues()(0)) / k));
+    }
+    return normals;
+}
+
+/// Orientation signs (+1 keep, -1 negate) of the unoriented `normals` from the field's votes: a point
+/// whose vote is at least `confident` (1 for a true signed distance) keeps its own; the others take
+/// theirs from the neighbours, most parallel normal first (a best-first spread from every confident
+/// point, as in Hoppe et al.'s orientation but seeded by the field); a point no spread reaches keeps
+/// the sign of its own vote. Returns how many points took a neighbour's orientation.
+std::int64_t orient_by_votes(const PointsF& normals, const NeighborIndices& idx, const Eigen::VectorXd& votes,
+                             double confident, std::vector<std::int8_t>& sign) {
+    const Eigen::Index n = normals.rows();
+    sign.assign(static_cast<std::size_t>(n), 0);
+    struct Edge {
+        float weight;
+        std::int32_t to;
+        std::int8_t sign;
+        bool operator<(const Edge& o) const { return weight < o.weight; }
+    };
+    std::priority_queue<Edge> queue;
+    auto spread_from = [&](Eigen::Index i) {
+        for (Eigen::Index j = 1; j < idx.cols(); ++j) {
+            const std::int32_t k = idx(i, j);
+            if (sign[static_cast<std::size_t>(k)] != 0) continue;
+            const float dot = normals.row(i).dot(normals.row(k));
+            queue.push({std::abs(dot), k, static_cast<std::int8_t>(dot < 0 ? -sign[static_cast<std::size_t>(i)] : sign[static_cast<std::size_t>(i)])});
+        }
+    };
+    for (Eigen::Index i = 0; i < n; ++i)
+        if (std::abs(votes(i)) >= confident) sign[static_cast<std::size_t>(i)] = votes(i) < 0 ? -1 : 1;
+    for (Eigen::Index i = 0; i < n; ++i)
+        if (sign[static_cast<std::size_t>(i)] != 0) spread_from(i);
+    std::int64_t spread = 0;
+    while (!queue.empty()) {
+        const Edge e = queue.top();
+        queue.pop();
+        if (sign[static_cast<std::size_t>(e.to)] != 0) continue;
+        sign[static_cast<std::size_t>(e.to)] = e.sign;
+        ++spread;
+        spread_from(e.to);
+    }
+    for (Eigen::Index i = 0; i < n; ++i)
+        if (sign[static_cast<std::size_t>(i)] == 0) sign[static_cast<std::size_t>(i)] = votes(i) < 0 ? -1 : 1;
+    return spread;
+}
+
+float dipole_term(const Eigen::Vector3f& source, const Eigen::Vector3f& moment, const Eigen::Vector3f& q) {
+    const Eigen::Vector3f d = source - q;
+    const float r2 = d.squaredNorm();
+    if (r2 <= 1e-20f) return 0.0f;
+    return moment.dot(d) / (r2 * std::sqrt(r2));
+}
+
+}  // namespace
+
+struct WindingSign::Impl {
+    WindingSignOptions options;
+    const KdTree* cloud = nullptr;
+    PointsF normals;
+    Eigen::VectorXf areas;
+    // Barnes-Hut tree over the points in `order`; positions and moments a_i n_i stored permuted.
+    std::vector<Node> nodes;
+    PointsF sorted_points, sorted_moments;
+    WindingSignStats stats;
+    mutable std::atomic<std::int64_t> corrected{0};
+
+    int build(std::vector<std::int32_t>& order, int begin, int end, const PointsF& pts) {
+        const int id = static_cast<int>(nodes.size());
+        nodes.emplace_back();
+        Node node;
+        node.begin = begin;
+        node.end = end;
+        double area = 0;
+        Eigen::Vector3d centre = Eigen::Vector3d::Zero(), dipole = Eigen::Vector3d::Zero();
+        Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
+        for (int i = begin; i < end; ++i) {
+            const std::int32_t p = order[static_cast<std::size_t>(i)];
+            const double a = areas(p);
+            area += a;
+            centre += a * pts.row(p).transpose().cast<double>();
+            dipole += a * normals.row(p).transpose().cast<double>();
+            lo = lo.cwiseMin(pts.row(p).transpose());
+            hi = hi.cwiseMax(pts.row(p).transpose());
+        }
+        node.centre = area > 0 ? Eigen::Vector3f((centre / area).cast<float>()) : Eigen::Vector3f(0.5f * (lo + hi));
+        node.dipole = dipole.cast<float>();
+        for (int i = begin; i < end; ++i)
+            node.radius = std::max(node.radius, (pts.row(order[static_cast<std::size_t>(i)]).transpose() - node.centre).norm());
+        if (end - begin > kLeafSize) {
+            int axis = 0;
+            (hi - lo).maxCoeff(&axis);
+            const int mid = begin + (end - begin) / 2;
+            std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
+                             [&](std::int32_t a, std::int32_t b) { return pts(a, axis) < pts(b, axis); });
+            node.left = build(order, begin, mid, pts);
+            node.right = build(order, mid, end, pts);
+        }
+        nodes[static_cast<std::size_t>(id)] = node;
+        return id;
+    }
+
+    float winding_at(const Eigen::Vector3f& q) const {
+        const float open2 = static_cast<float>(options.opening * options.opening);
+        double sum = 0;
+        std::int32_t stack[128];
+        int top = 0;
+        stack[top++] = 0;
+        while (top > 0) {
+            const Node& n = nodes[static_cast<std::size_t>(stack[--top])];
+            const float d2 = (n.centre - q).squaredNorm();
+            if (d2 > open2 * n.radius * n.radius) {
+                sum += dipole_term(n.centre, n.dipole, q);
+            } else if (n.left < 0) {
+                for (std::int32_t i = n.begin; i < n.end; ++i)
+                    sum += dipole_term(sorted_points.row(i).transpose(), sorted_moments.row(i).transpose(), q);
+            } else {
+                stack[top++] = n.left;
+                stack[top++] = n.right;
+            }
+        }
+        return static_cast<float>(sum / kFourPi);
+    }
+};
+
+WindingSign::WindingSign() : impl_(std::make_unique<Impl>()) { impl_->options.enabled = false; }
+WindingSign::~WindingSign() = default;
+WindingSign::WindingSign(WindingSign&&) noexcept = default;
+WindingSign& WindingSign::operator=(WindingSign&&) noexcept = default;
+
+WindingSign::WindingSign(const SdfBatchFn& field, const KdTree& cloud, const WindingSignOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+    Impl& m = *impl_;
+    m.options = options;
+    PCP_CHECK(options.normal_k >= 3 && options.normal_k <= 64, "winding sign: normal_k must be in 3..64");
+    PCP_CHECK(options.probe > 0 && std::isfinite(options.probe), "winding sign: probe must be > 0");
+    PCP_CHECK(options.near_k >= 0 && std::isfinite(options.near_k), "winding sign: near_k must be >= 0");
+    PCP_CHECK(options.margin >= 0 && options.margin < 0.5, "winding sign: margin must be in [0, 0.5)");
+    PCP_CHECK(options.confident_vote >= 0 && std::isfinite(options.confident_vote), "winding sign: confident_vote must be >= 0");
+    PCP_CHECK(options.opening >= 1 && std::isfinite(options.opening), "winding sign: opening must be >= 1");
+    if (!options.enabled) return;
+    PCP_CHECK(cloud.size() > options.normal_k,
+              "winding sign: the cloud has " << cloud.size() << " points; normal_k = " << options.normal_k << " needs more");
+    const auto t0 = std::chrono::steady_clock::now();
+    m.cloud = &cloud;
+    const PointsF& pts = cloud.points();
+    const Eigen::Index n = pts.rows();
+    const double scale = sampling_scale(cloud);
+    m.stats.points = n;
+    m.stats.tau = options.near_k * scale;
+
+    // 1. PCA normals, oriented by the field's growth along them at three probe steps; points with a
+    //    weak vote take the orientation of their neighbours.
+    NeighborIndices neighbours;
+    Eigen::VectorXf thickness;
+    m.normals = pca_normals(cloud, options.normal_k, neighbours, thickness);
+    constexpr int kProbes = 3;
+    // The first probe step: probe x scale, or beyond the local noise (thickness_probe standard
+    // deviations of the points along the normal) where that is more.
+    Eigen::VectorXf step(n);
+    for (Eigen::Index i = 0; i < n; ++i)
+        step(i) = std::max(static_cast<float>(options.probe * scale), static_cast<float>(options.noise_probe) * thickness(i));
+    PointsF probes((2 * kProbes + 1) * n, 3);
+    probes.bottomRows(n) = pts;
+    for (Eigen::Index i = 0; i < n; ++i)
+        for (int s = 0; s < kProbes; ++s) {
+            const float h = step(i) * static_cast<float>(1 << s);
+            probes.row((2 * s) * n + i) = pts.row(i) + h * m.normals.row(i);
+            probes.row((2 * s + 1) * n + i) = pts.row(i) - h * m.normals.row(i);
+        }
+    Eigen::VectorXf values(probes.rows());
+    field(probes, values);
+    PCP_CHECK(values.allFinite(), "winding sign: the field is not finite at a probe near the input points");
+    Eigen::VectorXd votes(n);  // 1 for a signed distance growing along the normal, -1 against it
+    for (Eigen::Index i = 0; i < n; ++i) {
+        double vote = 0, clean = 0;
+        for (int s = 0; s < kProbes; ++s) {
+            const double h = step(i) * double(1 << s), w = 1.0 / double(1 << s);
+            vote += w * (double(values((2 * s) * n + i)) - double(values((2 * s + 1) * n + i))) / h;
+            clean += w * 2.0;  // a signed distance grows by 2h over the probe pair
+        }
+        // A point the field's zero set does not pass near is no witness of its orientation.
+        const bool on_zero_set = std::abs(values(2 * kProbes * n + i)) <= std::max(options.zero_set * scale, double(step(i)));
+        votes(i) = on_zero_set ? vote / clean : 0.0;
+    }
+    for (Eigen::Index i = 0; i < n; ++i) m.stats.confident += std::abs(votes(i)) >= options.confident_vote;
+    if (double(m.stats.confident) < options.min_confident * double(n)) {
+        // The field is flat or unsigned near most of the data (a very noisy cloud): it cannot
+        // orient the points, and a winding number of badly oriented points would do harm.
+        m.stats.skipped = true;
+        m.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        return;
+    }
+    std::vector<std::int8_t> sign;
+    m.stats.weak_orientation = orient_by_votes(m.normals, neighbours, votes, options.confident_vote, sign);
+    for (Eigen::Index i = 0; i < n; ++i) {
+        if (sign[static_cast<std::size_t>(i)] < 0) m.normals.row(i) = -m.normals.row(i);
+        if (double(sign[static_cast<std::size_t>(i)]) * votes(i) < 0) ++m.stats.against_own_vote;
+    }
+
+    // 2. Areas and the Barnes-Hut tree.
+    const int ka = static_cast<int>(std::min<Eigen::Index>(9, n));  // 8 other points + the point itself
+    const Eigen::VectorXf rk = cloud.kth_distance(pts, ka);
+    m.areas = (rk.array().square() * static_cast<float>(3.14159265358979323846 / (ka - 1))).matrix();
+    // The enclosed volume, (1/3) sum_i a_i n_i . (p_i - c), is positive for outward normals. A
+    // field negative outside (a wrong global sign) would orient them all inward and the winding
+    // number would be -1 inside: then the normals are turned, so w is a proper inside indicator
+    // whatever the field's convention.
+    {
+        const Eigen::RowVector3d c = pts.cast<double>().colwise().mean();
+        double volume = 0;
+        for (Eigen::Index i = 0; i < n; ++i)
+            volume += double(m.areas(i)) * m.normals.row(i).cast<double>().dot(pts.row(i).cast<double>() - c) / 3.0;
+        m.stats.inward = volume < 0;
+        if (m.stats.inward) m.normals = -m.normals;
+    }
+    std::vector<std::int32_t> order(static_cast<std::size_t>(n));
+    std::iota(order.begin(), order.end(), 0);
+    m.nodes.reserve(static_cast<std::size_t>(2 * n / kLeafSize + 16));
+    m.build(order, 0, static_cast<int>(n), pts);
+    m.sorted_points.resize(n, 3);
+    m.sorted_moments.resize(n, 3);
+    for (Eigen::Index i = 0; i < n; ++i) {
+        const std::int32_t p = order[static_cast<std::size_t>(i)];
+        m.sorted_points.row(i) = pts.row(p);
+        m.sorted_moments.row(i) = m.areas(p) * m.normals.row(p);
+    }
+    m.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+Eigen::VectorXf WindingSign::winding(const Eigen::Ref<const PointsF>& points) const {
+    const Impl& m = *impl_;
+    Eigen::VectorXf w = Eigen::VectorXf::Zero(points.rows());
+    if (m.nodes.empty()) return w;
+    for (Eigen::Index i = 0; i < points.rows(); ++i) w(i) = m.winding_at(points.row(i).transpose());
+    return w;
+}
+
+void WindingSign::apply(const Eigen::Ref<const PointsF>& points, Eigen::Ref<Eigen::VectorXf> values) const {
+    const Impl& m = *impl_;
+    if (!m.options.enabled || m.nodes.empty()) return;
+    PCP_CHECK(points.rows() == values.size(), "winding sign: " << points.rows() << " points but " << values.size() << " values");
+    Eigen::VectorXf dist;
+    const IndexVector nearest = m.cloud->nearest(points, &dist);
+    (void)nearest;
+    const float tau = static_cast<float>(m.stats.tau), lo = static_cast<float>(0.5 - m.options.margin),
+                hi = static_cast<float>(0.5 + m.options.margin);
+    std::int64_t changed = 0;
+    for (Eigen::Index i = 0; i < points.rows(); ++i) {
+        if (dist(i) <= tau) continue;
+        const float w = m.winding_at(points.row(i).transpose());
+        if ((w > hi && values(i) > 0) || (w < lo && values(i) < 0)) {
+            values(i) = -values(i);
+            ++changed;
+        }
+    }
+    m.corrected += changed;
+}
+
+const PointsF& WindingSign::normals() const { return impl_->normals; }
+const Eigen::VectorXf& WindingSign::areas() const { return impl_->areas; }
+const WindingSignStats& WindingSign::stats() const { return impl_->stats; }
+std::int64_t WindingSign::corrected() const { return impl_->corrected.load(); }
+
+Eigen::VectorXf winding_number_brute_force(const Eigen::Ref<const PointsF>& points, const Eigen::Ref<const PointsF>& normals,
+                                           const Eigen::Ref<const Eigen::VectorXf>& areas,
+                                           const Eigen::Ref<const PointsF>& queries) {
+    PCP_CHECK(points.rows() == normals.rows() && points.rows() == areas.size(),
+              "winding number: points, normals and areas differ in count");
+    Eigen::VectorXf w(queries.rows());
+    for (Eigen::Index q = 0; q < queries.rows(); ++q) {
+        double sum = 0;
+        for (Eigen::Index i = 0; i < points.rows(); ++i)
+            sum += dipole_term(points.row(i).transpose(), areas(i) * normals.row(i).transpose(), queries.row(q).transpose());
+        w(q) = static_cast<float>(sum / kFourPi);
+    }
+    return w;
+}
+
+}  // namespace pcp

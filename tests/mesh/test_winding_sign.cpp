@@ -1,0 +1,214 @@
+// Tests for pcp/mesh/winding_sign.hpp: the Barnes-Hut winding number against brute force; normals
+// oriented outward by a field that is right only near the data; an inner sheet under a sphere and a
+// plug across a torus's hole removed by apply() while values near the data keep their sign; a field
+// of the opposite convention still gives outward normals; disabled and bad options.
+#include "mc_test_util.hpp"
+#include "pcp/cloud/kdtree.hpp"
+#include "pcp/cloud/shapes.hpp"
+#include "pcp/core/error.hpp"
+#include "pcp/mesh/marching_cubes.hpp"
+#include "pcp/mesh/mesh_check.hpp"
+#include "pcp/mesh/winding_sign.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+using namespace pcp_test;
+
+namespace {
+
+pcp::PointsF unit_points(const pcp::PointCloud& c) { return c.points.cast<float>(); }
+
+/// The default options, switched on (the pipeline's default is off).
+pcp::WindingSignOptions on() {
+    pcp::WindingSignOptions o;
+    o.enabled = true;
+    return o;
+}
+
+/// Sphere of radius R at the origin whose field has an inner sheet at depth `depth`: right in a
+/// layer under the surface, then positive again (a hollow sphere: the wrong sign in its core).
+ScalarSdf sphere_with_inner_sheet(double R, double depth) {
+    return [=](const Eigen::Vector3d& p) { return std::max(p.norm() - R, (R - depth) - p.norm()); };
+}
+
+/// Torus around the z axis, not rotated (sample_torus's frame), with its hole at z = 0.
+ScalarSdf flat_torus(double R, double r) {
+    return [=](const Eigen::Vector3d& p) { return std::hypot(std::hypot(p.x(), p.y()) - R, p.z()) - r; };
+}
+
+}  // namespace
+
+TEST_CASE("winding sign: the tree's winding number matches brute force", "[winding_sign]") {
+    const pcp::PointCloud c = pcp::sample_sphere(4000, 0.35, Eigen::Vector3d::Zero(), 3);
+    const pcp::PointsF pts = unit_points(c);
+    const pcp::KdTree tree(pts);
+    const pcp::WindingSign ws(batch(sphere_sdf(Eigen::Vector3d::Zero(), 0.35)), tree, on());
+    pcp::PointsF q(6, 3);
+    q << 0, 0, 0, 0.1, -0.05, 0.2, 0.3, 0, 0, 0.45, 0, 0, 0, 0.6, 0.1, -0.8, 0.3, 0.2;
+    const Eigen::VectorXf fast = ws.winding(q);
+    const Eigen::VectorXf brute = pcp::winding_number_brute_force(tree.points(), ws.normals(), ws.areas(), q);
+    for (Eigen::Index i = 0; i < q.rows(); ++i) {
+        INFO("query " << i << ": tree " << fast(i) << ", brute force " << brute(i));
+        CHECK(std::abs(fast(i) - brute(i)) < 0.03);
+    }
+    // Inside about 1, outside about 0 (the areas make the sum a surface integral).
+    CHECK(brute(0) == Approx(1.0).margin(0.08));
+    CHECK(brute(1) == Approx(1.0).margin(0.08));
+    CHECK(std::abs(brute(3)) < 0.08);
+    CHECK(std::abs(brute(5)) < 0.05);
+}
+
+TEST_CASE("winding sign: normals are oriented outward by a field that is wrong under the surface", "[winding_sign]") {
+    const double R = 0.4, depth = 0.05;
+    const pcp::PointCloud c = pcp::sample_sphere(8000, R, Eigen::Vector3d::Zero(), 5);
+    const pcp::KdTree tree(unit_points(c));
+    const pcp::WindingSign ws(batch(sphere_with_inner_sheet(R, depth)), tree, on());
+    const pcp::PointsF& n = ws.normals();
+    Eigen::Index outward = 0;
+    for (Eigen::Index i = 0; i < n.rows(); ++i)
+        if (n.row(i).dot(tree.points().row(i)) > 0) ++outward;
+    CHECK(outward == n.rows());
+    CHECK(ws.stats().points == n.rows());
+    CHECK(ws.stats().tau > 0);
+}
+
+TEST_CASE("winding sign: a field negative outside still gives outward normals and w = 1 inside", "[winding_sign]") {
+    const pcp::PointCloud c = pcp::sample_sphere(3000, 0.3, Eigen::Vector3d::Zero(), 2);
+    const pcp::KdTree tree(unit_points(c));
+    const ScalarSdf inverted = [](const Eigen::Vector3d& p) { return 0.3 - p.norm(); };
+    const pcp::WindingSign ws(batch(inverted), tree, on());
+    CHECK(ws.stats().inward);
+    Eigen::Index outward = 0;
+    for (Eigen::Index i = 0; i < tree.size(); ++i) outward += ws.normals().row(i).dot(tree.points().row(i)) > 0;
+    CHECK(outward == tree.size());
+    pcp::PointsF q(1, 3);
+    q << 0.05, 0.0, 0.0;
+    CHECK(ws.winding(q)(0) == Approx(1.0).margin(0.05));
+    const pcp::WindingSign right(batch(sphere_sdf(Eigen::Vector3d::Zero(), 0.3)), tree, on());
+    CHECK_FALSE(right.stats().inward);
+}
+
+TEST_CASE("winding sign: an inner sheet under a sphere is removed, the surface through the data is kept", "[winding_sign]") {
+    const double R = 0.4, depth = 0.05;
+    const pcp::PointCloud c = pcp::sample_sphere(8000, R, Eigen::Vector3d::Zero(), 5);
+    const pcp::KdTree tree(unit_points(c));
+    const ScalarSdf f = sphere_with_inner_sheet(R, depth);
+    const pcp::WindingSign ws(batch(f), tree, on());
+    // Points in the wrong-signed core (depth 0.08), just outside, and at the data.
+    pcp::PointsF q(300, 3);
+    const pcp::PointsF& pts = tree.points();
+    for (Eigen::Index i = 0; i < 100; ++i) {
+        const Eigen::RowVector3f dir = pts.row(i * 37).normalized();
+        q.row(i) = dir * static_cast<float>(R - 0.08);
+        q.row(100 + i) = dir * static_cast<float>(R + 0.03);
+        q.row(200 + i) = dir * static_cast<float>(R - 0.002);
+    }
+    REQUIRE(0.03 > ws.stats().tau);  // every query but the last hundred is away from the data
+    Eigen::VectorXf v(q.rows());
+    batch(f)(q, v);
+    const Eigen::VectorXf before = v;
+    ws.apply(q, v);
+    for (Eigen::Index i = 0; i < 100; ++i) {
+        CHECK(before(i) > 0);  // the wrong sign ...
+        CHECK(v(i) < 0);       // ... corrected
+        CHECK(std::abs(v(i)) == std::abs(before(i)));
+        CHECK(v(100 + i) == before(100 + i));  // outside: right already
+        CHECK(v(200 + i) == before(200 + i));  // at the data: the field's own sign
+    }
+    CHECK(ws.corrected() == 100);
+
+    // The mesh of the corrected field is one sphere (the inner sheet is gone).
+    const pcp::SdfBatchFn corrected = [&](const Eigen::Ref<const pcp::PointsF>& p, Eigen::Ref<Eigen::VectorXf> out) {
+        batch(f)(p, out);
+        ws.apply(p, out);
+    };
+    const pcp::Mesh before_mesh = pcp::marching_cubes(pcp::evaluate_sdf_grid(batch(f), cube_grid(64)));
+    const pcp::Mesh after_mesh = pcp::marching_cubes(pcp::evaluate_sdf_grid(corrected, cube_grid(64)));
+    CHECK(topology(before_mesh).euler() == 4);  // two spheres
+    CHECK(topology(after_mesh).euler() == 2);   // one
+    CHECK(topology(after_mesh).closed_manifold_oriented());
+}
+
+TEST_CASE("winding sign: a plug across a torus's hole is opened (genus 1)", "[winding_sign]") {
+    const double R = 0.3, r = 0.1;
+    const pcp::PointCloud c = pcp::sample_torus(12000, R, r, 7);
+    const pcp::KdTree tree(unit_points(c));
+    const ScalarSdf torus = flat_torus(R, r);
+    // The field says "inside" in a slab across the hole: there it is minus the distance to the torus
+    // (the pulling loss only fits |F|), so it touches zero at the hole's wall without crossing it.
+    const ScalarSdf plugged = [=](const Eigen::Vector3d& p) {
+        const double t = torus(p);
+        if (std::hypot(p.x(), p.y()) < R && std::abs(p.z()) < 0.8 * r) return -std::abs(t);
+        return t;
+    };
+    const pcp::Mesh before = pcp::marching_cubes(pcp::evaluate_sdf_grid(batch(plugged), cube_grid(64)));
+    REQUIRE(topology(before).euler() == 2);  // genus 0: the hole is closed
+    const pcp::WindingSign ws(batch(plugged), tree, on());
+    const pcp::SdfBatchFn corrected = [&](const Eigen::Ref<const pcp::PointsF>& p, Eigen::Ref<Eigen::VectorXf> out) {
+        batch(plugged)(p, out);
+        ws.apply(p, out);
+    };
+    const pcp::Mesh after = pcp::marching_cubes(pcp::evaluate_sdf_grid(corrected, cube_grid(64)));
+    const auto topo = topology(after);
+    CHECK(topo.closed_manifold_oriented());
+    CHECK(topo.euler() == 0);  // one torus: genus 1
+    // Nothing left in the middle of the hole.
+    Eigen::Index in_hole = 0;
+    for (Eigen::Index v = 0; v < after.vertices.rows(); ++v) in_hole += std::hypot(after.vertices(v, 0), after.vertices(v, 1)) < 0.15;
+    CHECK(in_hole == 0);
+
+    // The hole's wall has no vote of its own (the field is negative on both sides of it): without
+    // the spread of orientation from the confident points, half its normals point into the tube and
+    // the winding number in the hole is unclear, so the plug stays.
+    pcp::WindingSignOptions own_votes_only = on();
+    own_votes_only.confident_vote = 0;
+    const pcp::WindingSign unspread(batch(plugged), tree, own_votes_only);
+    const pcp::SdfBatchFn partly = [&](const Eigen::Ref<const pcp::PointsF>& p, Eigen::Ref<Eigen::VectorXf> out) {
+        batch(plugged)(p, out);
+        unspread.apply(p, out);
+    };
+    CHECK(topology(pcp::marching_cubes(pcp::evaluate_sdf_grid(partly, cube_grid(64)))).euler() != 0);
+    CHECK(unspread.stats().weak_orientation == 0);
+    CHECK(ws.stats().weak_orientation > 0);
+}
+
+TEST_CASE("winding sign: disabled is the identity, bad options throw", "[winding_sign]") {
+    const pcp::PointCloud c = pcp::sample_sphere(500, 0.3, Eigen::Vector3d::Zero(), 1);
+    const pcp::KdTree tree(unit_points(c));
+    const pcp::SdfBatchFn f = batch(sphere_sdf(Eigen::Vector3d::Zero(), 0.3));
+    pcp::WindingSignOptions off;
+    off.enabled = false;
+    const pcp::WindingSign ws(f, tree, off);
+    pcp::PointsF q(2, 3);
+    q << 0, 0, 0, 0.5, 0, 0;
+    Eigen::VectorXf v(2);
+    v << 1.0f, -1.0f;  // both wrong
+    ws.apply(q, v);
+    CHECK(v(0) == 1.0f);
+    CHECK(v(1) == -1.0f);
+    const pcp::WindingSign identity;
+    identity.apply(q, v);
+    CHECK(v(0) == 1.0f);
+
+    pcp::WindingSignOptions bad = on();
+    bad.normal_k = 2;
+    CHECK_THROWS_AS(pcp::WindingSign(f, tree, bad), pcp::Error);
+    bad = on();
+    bad.margin = 0.5;
+    CHECK_THROWS_AS(pcp::WindingSign(f, tree, bad), pcp::Error);
+    bad = on();
+    bad.opening = 0.5;
+    CHECK_THROWS_AS(pcp::WindingSign(f, tree, bad), pcp::Error);
+    bad = on();
+    bad.near_k = -1;
+    CHECK_THROWS_AS(pcp::WindingSign(f, tree, bad), pcp::Error);
+    const pcp::PointCloud few = pcp::sample_sphere(10, 0.3, Eigen::Vector3d::Zero(), 1);
+    const pcp::KdTree small(unit_points(few));
+    CHECK_THROWS_AS(pcp::WindingSign(f, small, on()), pcp::Error);
+    const pcp::SdfBatchFn nan_field = [](const Eigen::Ref<const pcp::PointsF>&, Eigen::Ref<Eigen::VectorXf> out) {
+        out.setConstant(std::nanf(""));
+    };
+    CHECK_THROWS_AS(pcp::WindingSign(nan_field, tree, on()), pcp::Error);
+}
