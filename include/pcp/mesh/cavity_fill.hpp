@@ -1,0 +1,55 @@
+// Cavity fill: enclosed pockets of "outside" in the fitted field are filled (not in the paper).
+//
+// The pulling loss fixes |F| near the data, never the sign of a region (sign_repair.hpp). On noisy
+// scans the fitted field is often a hollow shell: negative in a layer as thick as the noise band,
+// positive again in the interior, so marching cubes meshes a second, inward-facing sheet under the
+// surface (abc_00010009: 343k faces, 204k after the fill, docs/BENCHMARKS.md).
+// Both sheets lie within the noise of the data, so the repairs that look for zero crossings away from
+// the data cannot see the inner one. A scanner, though, cannot see a closed cavity: a positive region
+// that the outside cannot reach is not outside. On the dense fine grid:
+//
+//  1. The outside: the positive samples reachable from the grid box's faces through samples with
+//     F > delta (delta = core_cells x the largest cell spacing): a ball of radius about delta must
+//     pass, so the pinholes and tunnels through a thin shell do not let the outside in.
+//  2. Cavity cores: the other samples with F > delta.
+//  3. Both grow together, one 6-neighbour layer at a time, through the positive samples that remain
+//     (so a narrow pocket joined to the outside stays outside, and each tunnel is split where the
+//     two fronts meet); positive samples neither reaches are bubbles.
+//  4. Pockets: the connected regions of the positive samples not labelled outside (cores, what they
+//     grew into, bubbles). A pocket whose boundary is at most max_open open to the outside (pairs
+//     with outside samples; the rest are pairs with negative ones) is a cavity behind pinholes and is
+//     negated (|F| kept): the inner sheet and the bubbles vanish, the outer surface stays where the
+//     field put it. A pocket more open than that is a bay of the outside the core threshold cut off:
+//     filling it would put a sheet where the two fronts met, away from the data, so it stays.
+//
+// A region of the outside joined to the rest only through a passage narrower than about 2 delta (a
+// bottle's inside behind a thin neck) is filled too. Needs every sample of the lattice (a dense
+// grid); otherwise, and above max_samples, nothing is done (stats.skipped).
+#pragma once
+
+#include "pcp/mesh/sdf_grid.hpp"
+
+#include <cstdint>
+
+namespace pcp {
+
+struct CavityFillOptions {
+    bool enabled = true;
+    double core_cells = 2.0;    ///< delta in units of the largest cell spacing (> 0)
+    double max_open = 0.15;     ///< a pocket is filled when at most this fraction of its boundary is open to the outside
+    std::int64_t max_samples = std::int64_t(1) << 24;  ///< (R + 1)^3 above this: skipped (R = 128: 2.1e6)
+};
+
+struct CavityFillStats {
+    bool skipped = false;              ///< not a dense grid, or larger than max_samples
+    std::int64_t cavity_samples = 0;   ///< lattice samples negated (cavities and bubbles)
+    int pockets = 0;                   ///< connected positive regions the outside did not reach
+    int cavities = 0;                  ///< of which filled (closed enough)
+    double delta = 0;                  ///< the core threshold used (unit-box units)
+};
+
+/// Negates the values of the enclosed positive regions of `grid` described above, in place (every
+/// stored copy of a sample). Throws pcp::Error for bad options.
+CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options = {});
+
+}  // namespace pcp
