@@ -94,6 +94,15 @@ int main(int argc, char** argv) {
             ("sign-repair-parity", "Also flip coarse samples whose sign disagrees with at least this many of their 6 "
                                    "axis-ray parity votes (0 = off, 1..6; include/pcp/mesh/sign_repair.hpp)",
              cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.parity_votes)))
+            ("winding-sign", "on | off: away from the data, give the field the sign of the generalised winding number of "
+                             "the input points oriented by the field (inner sheets, plugged holes, bubbles; not in the paper; "
+                             "include/pcp/mesh/winding_sign.hpp)",
+             cxxopts::value<std::string>()->default_value(d.winding_sign.enabled ? "on" : "off"))
+            ("winding-near", "Distance from the data, in sampling scales, within which the field keeps its own sign",
+             cxxopts::value<double>()->default_value(fmt(d.winding_sign.near_k)))
+            ("cavity-fill", "on | off: fill the pockets of the fitted field's outside that the outside cannot reach (the hollow "
+                            "shells of noisy scans; evaluates the whole grid; not in the paper; include/pcp/mesh/cavity_fill.hpp)",
+             cxxopts::value<std::string>()->default_value(d.cavity_fill.enabled ? "on" : "off"))
             ("fine-repair", "on | off: flip thin regions of the fine grid whose boundary is mostly a zero crossing away from "
                             "the data (membranes across holes; not in the paper; include/pcp/mesh/fine_repair.hpp)",
              cxxopts::value<std::string>()->default_value(d.fine_repair.enabled ? "on" : "off"))
@@ -102,6 +111,9 @@ int main(int argc, char** argv) {
              cxxopts::value<std::string>()->default_value(d.surface_fit.enabled ? "on" : "off"))
             ("surface-fit-iterations", "Rounds of the surface fit's move onto the data (0: the component filter only)",
              cxxopts::value<int>()->default_value(std::to_string(d.surface_fit.iterations)))
+            ("smooth", "auto | on | off: bilateral smoothing of the final mesh (auto: when the cloud was denoised, that is "
+                       "noisy; not in the paper; include/pcp/mesh/smooth.hpp)",
+             cxxopts::value<std::string>()->default_value("auto"))
             ("keep-checkpoint", "Keep OUT.ckpt (the finished query network) and OUT.ckpt.prior, so that a run with --resume "
                                 "re-meshes without training again");
         options.parse_positional({"input"});
@@ -185,6 +197,24 @@ int main(int argc, char** argv) {
         if (args.count("sign-repair-resolution")) o.sign_repair.resolution = args["sign-repair-resolution"].as<int>();
         if (o.sign_repair.resolution < 2 || o.sign_repair.resolution > 256)
             throw pcp::cli::UsageError("--sign-repair-resolution must be in [2, 256]");
+        if (args.count("winding-sign")) {
+            const std::string v = args["winding-sign"].as<std::string>();
+            if (v != "on" && v != "off") throw pcp::cli::UsageError("--winding-sign must be on or off (got '" + v + "')");
+            o.winding_sign.enabled = v == "on";
+        }
+        if (args.count("winding-near")) o.winding_sign.near_k = args["winding-near"].as<double>();
+        if (!(o.winding_sign.near_k >= 0 && o.winding_sign.near_k <= 100))
+            throw pcp::cli::UsageError("--winding-near must be in [0, 100]");
+        if (args.count("smooth")) {
+            const std::string v = args["smooth"].as<std::string>();
+            if (v != "auto" && v != "on" && v != "off") throw pcp::cli::UsageError("--smooth must be auto, on or off (got '" + v + "')");
+            if (v != "auto") o.smoothing.noisy = o.smoothing.clean = v == "on";
+        }
+        if (args.count("cavity-fill")) {
+            const std::string v = args["cavity-fill"].as<std::string>();
+            if (v != "on" && v != "off") throw pcp::cli::UsageError("--cavity-fill must be on or off (got '" + v + "')");
+            o.cavity_fill.enabled = v == "on";
+        }
         if (args.count("fine-repair")) {
             const std::string v = args["fine-repair"].as<std::string>();
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--fine-repair must be on or off (got '" + v + "')");
@@ -264,13 +294,22 @@ int main(int argc, char** argv) {
         std::ostringstream s;
         s << "wrote " << output << ": " << mesh.vertices.rows() << " vertices, " << mesh.faces.rows() << " faces, "
           << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "")
+          << (report.winding_sign.points == 0 ? std::string(", winding sign off")
+              : report.winding_sign.skipped
+                  ? ", winding sign skipped (the field orients only " + std::to_string(report.winding_sign.confident) + " of " +
+                        std::to_string(report.winding_sign.points) + " points)"
+                  : ", winding sign changed " + std::to_string(report.winding_corrected) + " field values (" +
+                        std::to_string(report.winding_sign.confident) + " of " + std::to_string(report.winding_sign.points) +
+                        " points oriented by the field, the others by their neighbours; " + fmt(report.winding_sign.seconds) + " s)")
           << ", sign repair flipped " << report.sign_repair.flipped_components << " of " << report.sign_repair.components
           << " regions away from the data"
           << (o.sign_repair.parity_votes > 0 ? " and " + std::to_string(report.sign_repair.parity_flipped) + " coarse samples by parity" : std::string())
+          << ", cavity fill " << (report.cavity_fill.skipped ? std::string("skipped (grid too large)")
+                                   : "filled " + std::to_string(report.cavity_fill.cavities) + " pockets")
           << ", fine repair flipped " << report.fine_repair.flipped_components << " of " << report.fine_repair.components
           << " thin regions" << (report.fine_repair.skipped ? " (skipped: grid too large)" : "")
           << ", surface fit removed " << report.surface_fit.removed_components << " of " << report.surface_fit.components
-          << " components (no input points near them)\n"
+          << " components (no input points near them)" << (report.smoothed ? ", smoothed" : "") << "\n"
           << "| read " << fmt(t_read) << " s | denoise " << fmt(report.seconds_denoise) << " s (" << report.denoise_passes
           << " passes) | prior " << fmt(report.seconds_prior) << " s (loss " << fmt(report.prior_loss)
           << ") | query net " << fmt(report.seconds_fit) << " s (" << report.fit_steps << " steps, loss " << fmt(report.fit_loss)

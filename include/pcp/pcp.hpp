@@ -21,10 +21,15 @@
 #include "pcp/train/query_fit.hpp"
 #include "pcp/train/schedule.hpp"
 
+#include "pcp/mesh/cavity_fill.hpp"
+#include "pcp/mesh/fine_repair.hpp"
 #include "pcp/mesh/marching_cubes.hpp"
 #include "pcp/mesh/mesh_check.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 #include "pcp/mesh/sign_repair.hpp"
+#include "pcp/mesh/smooth.hpp"
+#include "pcp/mesh/surface_fit.hpp"
+#include "pcp/mesh/winding_sign.hpp"
 
 #include "pcp/reconstruct.hpp"
 

@@ -8,10 +8,13 @@
 #include "pcp/cloud/denoise.hpp"
 #include "pcp/core/progress.hpp"
 #include "pcp/core/types.hpp"
+#include "pcp/mesh/cavity_fill.hpp"
 #include "pcp/mesh/fine_repair.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 #include "pcp/mesh/sign_repair.hpp"
+#include "pcp/mesh/smooth.hpp"
 #include "pcp/mesh/surface_fit.hpp"
+#include "pcp/mesh/winding_sign.hpp"
 #include "pcp/train/prior.hpp"
 #include "pcp/train/query_fit.hpp"
 
@@ -28,9 +31,12 @@ struct ReconstructOptions {
     double margin = 0.05;            ///< added around the cloud's unit box on every side (paper: 0.05)
     double iso = 0.0;                ///< the level set extracted: F_g = iso (every mesh stage sees F_g - iso)
     SdfGridOptions grid;             ///< narrow-band settings
+    WindingSignOptions winding_sign; ///< the sign away from the data by the winding number of the field-oriented points (not in the paper)
     SignRepairOptions sign_repair;   ///< flip regions whose sign the data does not support (not in the paper)
+    CavityFillOptions cavity_fill;   ///< fill enclosed positive pockets (hollow shells of noisy scans) on a dense grid (not in the paper)
     FineRepairOptions fine_repair;   ///< the sign repair's rule on the fine grid, for thin membranes (not in the paper)
     SurfaceFitOptions surface_fit;   ///< support filter and fit of the mesh onto the data (not in the paper)
+    SmoothOptions smoothing;         ///< bilateral smoothing of the final mesh, of noisy clouds by default (not in the paper)
     /// With fit.schedule.checkpoint_path set: write the finished query network there and keep the
     /// self-prior beside it (PATH.prior), so that a second call with fit.schedule.resume re-meshes
     /// (other resolution, sign repair or surface fit) without training again.
@@ -49,7 +55,11 @@ struct ReconstructOptions {
 struct ReconstructReport {
     double seconds_denoise = 0, seconds_prior = 0, seconds_fit = 0, seconds_grid = 0, seconds_mesh = 0;
     SurfaceFitStats surface_fit;     ///< what the surface fit removed and moved
+    bool smoothed = false;           ///< the final mesh was smoothed (SmoothOptions: noisy for a denoised cloud, else clean)
     FineRepairStats fine_repair;     ///< what the fine sign repair flipped
+    CavityFillStats cavity_fill;     ///< what the cavity fill negated
+    WindingSignStats winding_sign;   ///< the oriented normals and the winding-number tree
+    std::int64_t winding_corrected = 0;  ///< field values whose sign the winding number changed
     double prior_loss = 0, fit_loss = 0;
     std::int64_t fit_steps = 0;
     int denoise_passes = 0;          ///< passes applied to the input (DenoiseOptions; resolved when automatic)

@@ -1,9 +1,10 @@
 // The reconstruction pipeline (see pcp/reconstruct.hpp): denoise (optional) -> one PreparedCloud
 // -> prior (given, resumed beside the checkpoint, or trained on the cloud) -> query-network fit ->
 // sign decision on the grid box's boundary (samples there lie outside the shape: if most are
-// negative, the field is negated) -> sign repair -> narrow-band grid -> fine sign repair ->
+// negative, the field is negated) -> winding-number sign away from the data -> sign repair -> grid
+// (narrow band, or dense for the cavity fill) -> cavity fill -> fine sign repair ->
 // marching cubes -> surface fit (components away from the data removed, vertices moved onto the
-// data) -> input frame. Every mesh stage sees F_g - iso and works at level 0.
+// data) -> bilateral smoothing (noisy clouds) -> input frame. Every mesh stage sees F_g - iso and works at level 0.
 #include "pcp/reconstruct.hpp"
 
 #include "pcp/cloud/prepared_cloud.hpp"
@@ -157,22 +158,36 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
             if (((p - lo).abs() <= tol).any() || ((p - hi).abs() <= tol).any()) v(i) = std::max(v(i), outside);
         }
     };
+    // Away from the data the sign is the winding number's of the field-oriented input points
+    // (include/pcp/mesh/winding_sign.hpp).
+    const WindingSign winding(fitted, cloud.tree(), options.winding_sign);
+    r.winding_sign = winding.stats();
+    const SdfBatchFn oriented = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
+        fitted(q, v);
+        winding.apply(q, v);
+    };
     // Regions whose sign the data does not support are flipped (include/pcp/mesh/sign_repair.hpp);
     // the coarse grid is never finer than the fine one.
     SignRepairOptions so = options.sign_repair;
     so.resolution = std::min(so.resolution, options.resolution);
-    const SignRepair repair(fitted, spec.box, cloud.tree(), so);
+    const SignRepair repair(oriented, spec.box, cloud.tree(), so);
     r.sign_repair = repair.stats();
     const SdfBatchFn field = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
-        fitted(q, v);
+        oriented(q, v);
         repair.apply(q, v);
     };
     SdfGridOptions go = options.grid;
     go.progress = chain(go.progress, options.progress);
+    // The cavity fill needs every sample of the lattice (include/pcp/mesh/cavity_fill.hpp).
+    const std::int64_t lattice = std::int64_t(options.resolution + 1) * (options.resolution + 1) * (options.resolution + 1);
+    if (options.cavity_fill.enabled && lattice <= options.cavity_fill.max_samples) go.band = NarrowBand::Dense;
     SdfGrid grid = go.band == NarrowBand::NearPoints ? evaluate_sdf_grid(field, spec, go, cloud.unit())
                                                      : evaluate_sdf_grid(field, spec, go);
+    // Enclosed pockets of "outside": the hollow shells of noisy scans (include/pcp/mesh/cavity_fill.hpp).
+    r.cavity_fill = fill_cavities(grid, options.cavity_fill);
     // Membranes and bubbles too thin for the coarse grid (include/pcp/mesh/fine_repair.hpp).
     r.fine_repair = repair_fine_grid(grid, cloud.tree(), options.fine_repair);
+    r.winding_corrected = winding.corrected();
     r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations;
     r.seconds_grid = seconds_since(t0);
 
@@ -182,9 +197,12 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
                                         "in the grid (train longer, or check the input)");
     SurfaceFitOptions fit_options = options.surface_fit;
     if (r.denoise_passes > 0) fit_options.neighbors = fit_options.noisy_neighbors;  // a noisy cloud: average more points
-    const Mesh unit_mesh = fit_surface_to_points(mc_mesh, cloud.tree(), fit_options, &r.surface_fit);
-    PCP_CHECK(unit_mesh.faces.rows() > 0, "reconstruction produced no surface near the input points (every piece of "
-                                          "the fitted SDF's zero set lies away from the data)");
+    const Mesh fitted_mesh = fit_surface_to_points(mc_mesh, cloud.tree(), fit_options, &r.surface_fit);
+    PCP_CHECK(fitted_mesh.faces.rows() > 0, "reconstruction produced no surface near the input points (every piece of "
+                                            "the fitted SDF's zero set lies away from the data)");
+    // The noise's bumps that the fit onto noisy data keeps (include/pcp/mesh/smooth.hpp).
+    r.smoothed = r.denoise_passes > 0 ? options.smoothing.noisy : options.smoothing.clean;
+    const Mesh unit_mesh = r.smoothed ? bilateral_smooth(fitted_mesh, options.smoothing.bilateral) : fitted_mesh;
     Mesh mesh = cloud.normalization().from_unit(unit_mesh);
     r.closed = is_closed_and_oriented(mesh);
     r.seconds_mesh = seconds_since(t0);

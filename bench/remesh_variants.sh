@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# remesh_variants.sh: measures mesh-stage settings on the networks a benchmark run kept, without
+# fitting again. For every case of MANIFEST with a ground-truth mesh whose OUT/<case>/pcp.ply.ckpt
+# exists (a run_benchmarks.sh output made with `-- --keep-checkpoint`), each variant re-meshes the
+# kept networks with `pcp_reconstruct INPUT --resume --keep-checkpoint --preset PRESET ARGS` into
+# OUT/<case>/<name>.ply and pcp_eval scores it: L2-CD x 100 (p2s) and NC (shapenet), one line per
+# case, the stored pcp.ply first.
+#
+# Usage: bench/remesh_variants.sh OUT "NAME:ARGS"...
+#   e.g. bench/remesh_variants.sh /tmp/b1/out "cf:--winding-sign off" "all:--winding-sign on --smooth on"
+# Environment: BIN (default <repo>/build/bin), MANIFEST (default <repo>/../shared/data/MANIFEST.tsv),
+# PRESET (default: default), CASES (space-separated; default every case with kept networks).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+repo=$(cd "$here/.." && pwd)
+BIN=${BIN:-$repo/build/bin}
+MANIFEST=${MANIFEST:-$repo/../shared/data/MANIFEST.tsv}
+PRESET=${PRESET:-default}
+[ $# -ge 2 ] || { sed -n 2,14p "$0"; exit 2; }
+out=$1
+shift
+data=$(dirname "$MANIFEST")
+score() {
+    local l2 nc
+    l2=$("$BIN/pcp_eval" "$1" "$2" --protocol p2s --tsv | awk '$1=="chamfer_l2_x100"{print $2}')
+    nc=$("$BIN/pcp_eval" "$1" "$2" --protocol shapenet --tsv | awk '$1=="normal_consistency"{print $2}')
+    printf "%.4f / %.3f" "$l2" "$nc"
+}
+cases=${CASES:-$(awk -F'\t' 'NR>1 && $4!="-"{print $1}' "$MANIFEST")}
+for c in $cases; do
+    d=$out/$c
+    [ -f "$d/pcp.ply.ckpt" ] || continue
+    input=$data/$(awk -F'\t' -v c="$c" '$1==c{print $3}' "$MANIFEST")
+    gt=$data/$(awk -F'\t' -v c="$c" '$1==c{print $4}' "$MANIFEST")
+    line="$c | pcp $(score "$d/pcp.ply" "$gt")"
+    for v in "$@"; do
+        name=${v%%:*}
+        args=${v#*:}
+        [ "$name" != pcp ] || { echo "remesh_variants: the name 'pcp' is the stored mesh's" >&2; exit 2; }
+        cp "$d/pcp.ply.ckpt" "$d/$name.ply.ckpt"
+        cp "$d/pcp.ply.ckpt.prior" "$d/$name.ply.ckpt.prior"
+        # shellcheck disable=SC2086
+        if "$BIN/pcp_reconstruct" "$input" -o "$d/$name.ply" --preset "$PRESET" --resume --keep-checkpoint $args >"$d/$name.log" 2>&1; then
+            line="$line | $name $(score "$d/$name.ply" "$gt")"
+        else
+            line="$line | $name failed (see $d/$name.log)"
+        fi
+    done
+    echo "$line"
+done
