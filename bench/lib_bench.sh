@@ -2,11 +2,20 @@
 # (sourced, not run): usage errors, the data MANIFEST.tsv (columns found by name) and the choice of
 # cases, the --out check (never inside the repository unless git-ignored), running commands (or
 # printing them in a dry run) under an optional lock, GNU time reports, number formatting, the
-# machine description, and atomic writes of generated files.
+# machine description, atomic writes of generated files, and the short score of the sweep scripts.
 #
 # The caller sets before use: prog (name in messages), repo (repository root), and, for the
 # functions that need them, dry_run (0/1), lock_prefix (array), bin_dir, manifest, out_dir, R
 # (associative array of results).
+
+# bench_score PCP_EVAL MESH GT: "L2-CD x 100 (p2s) / NC (shapenet)" of MESH against GT, for the sweep
+# scripts (surface_fit_sweep.sh, remesh_variants.sh).
+bench_score() {
+    local l2 nc
+    l2=$("$1" "$2" "$3" --protocol p2s --tsv | awk '$1=="chamfer_l2_x100"{print $2}')
+    nc=$("$1" "$2" "$3" --protocol shapenet --tsv | awk '$1=="normal_consistency"{print $2}')
+    printf "%.4f / %.3f" "$l2" "$nc"
+}
 
 die_usage() { echo "$prog: $*" >&2; echo "$prog: see --help" >&2; exit 2; }
 need_value() { [ $# -ge 2 ] && [ -n "$2" ] || die_usage "$1 needs a value"; }

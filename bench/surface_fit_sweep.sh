@@ -22,12 +22,9 @@ shift
 data=$(dirname "$MANIFEST")
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-score() {
-    local l2 nc
-    l2=$("$BIN/pcp_eval" "$1" "$2" --protocol p2s --tsv | awk '$1=="chamfer_l2_x100"{print $2}')
-    nc=$("$BIN/pcp_eval" "$1" "$2" --protocol shapenet --tsv | awk '$1=="normal_consistency"{print $2}')
-    printf "%.4f / %.3f" "$l2" "$nc"
-}
+# shellcheck source=bench/lib_bench.sh
+source "$here/lib_bench.sh"
+score() { bench_score "$BIN/pcp_eval" "$1" "$2"; }
 cases=${CASES:-$(awk -F'\t' 'NR>1 && $4!="-"{print $1}' "$MANIFEST")}
 for setting in "$@"; do
     echo "== setting: $setting"

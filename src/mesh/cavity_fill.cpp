@@ -2,6 +2,7 @@
 #include "pcp/mesh/cavity_fill.hpp"
 
 #include "pcp/core/error.hpp"
+#include "mesh/grid_samples.hpp"
 
 #include <cmath>
 #include <vector>
@@ -9,27 +10,6 @@
 namespace pcp {
 
 namespace {
-
-/// Calls fn(value&, lattice index) for every stored, non-NaN sample of every block (a sample shared
-/// by several blocks once per block that stores it).
-template <class Fn>
-void for_each_sample(SdfGrid& grid, Fn&& fn) {
-    const int R = grid.spec.resolution, n1 = R + 1, B = grid.block_cells, S = B + 1, nb = grid.blocks_per_axis;
-    const std::int64_t per_block = std::int64_t(S) * S * S;
-    for (int b = 0; b < grid.num_blocks(); ++b) {
-        const std::int64_t key = grid.block_keys[static_cast<std::size_t>(b)];
-        const int bx = int(key % nb), by = int((key / nb) % nb), bz = int(key / (std::int64_t(nb) * nb));
-        for (int z = 0; z < S; ++z)
-            for (int y = 0; y < S; ++y)
-                for (int x = 0; x < S; ++x) {
-                    const std::int64_t i = std::int64_t(bx) * B + x, j = std::int64_t(by) * B + y, k = std::int64_t(bz) * B + z;
-                    if (i > R || j > R || k > R) continue;
-                    float& v = grid.values[static_cast<std::size_t>(b * per_block + (std::int64_t(z) * S + y) * S + x)];
-                    if (std::isnan(v)) continue;
-                    fn(v, (k * n1 + j) * n1 + i);
-                }
-    }
-}
 
 enum Label : std::uint8_t { kNone = 0, kOutside = 1, kCavity = 2 };
 
@@ -50,7 +30,7 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options) {
     st.delta = options.core_cells * grid.spec.spacing().maxCoeff();
     const float delta = static_cast<float>(st.delta);
     std::vector<float> value(static_cast<std::size_t>(total), std::numeric_limits<float>::quiet_NaN());
-    for_each_sample(grid, [&](const float& v, std::int64_t g) { value[static_cast<std::size_t>(g)] = v; });
+    detail::for_each_stored_sample(grid, [&](const float& v, std::int64_t g) { value[static_cast<std::size_t>(g)] = v; });
     for (float v : value) PCP_CHECK(!std::isnan(v), "cavity fill: the dense grid misses a sample");
 
     std::vector<std::uint8_t> label(static_cast<std::size_t>(total), kNone);
@@ -76,40 +56,32 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options) {
         }
     }
     std::int64_t nb[6];
-    while (!front.empty()) {
-        next.clear();
-        for (std::int64_t g : front) {
-            const int n = neighbours(g, nb);
-            for (int a = 0; a < n; ++a) {
-                const auto h = static_cast<std::size_t>(nb[a]);
-                if (label[h] == kNone && value[h] > delta) {
-                    label[h] = kOutside;
-                    next.push_back(nb[a]);
+    // Grows the labelled `front`, one 6-neighbour layer at a time, into the unlabelled samples whose
+    // value is above `floor`; each takes the label of the sample it is reached from.
+    auto grow = [&](float floor) {
+        while (!front.empty()) {
+            next.clear();
+            for (std::int64_t g : front) {
+                const int n = neighbours(g, nb);
+                for (int a = 0; a < n; ++a) {
+                    const auto h = static_cast<std::size_t>(nb[a]);
+                    if (label[h] == kNone && value[h] > floor) {
+                        label[h] = label[static_cast<std::size_t>(g)];
+                        next.push_back(nb[a]);
+                    }
                 }
             }
+            front.swap(next);
         }
-        front.swap(next);
-    }
+    };
+    grow(delta);
     // 2. Cavity cores; 3. both grow one layer at a time through the remaining positive samples.
     front.clear();
     for (std::int64_t g = 0; g < total; ++g) {
         if (value[static_cast<std::size_t>(g)] > delta && label[static_cast<std::size_t>(g)] == kNone) label[static_cast<std::size_t>(g)] = kCavity;
         if (label[static_cast<std::size_t>(g)] != kNone) front.push_back(g);
     }
-    while (!front.empty()) {
-        next.clear();
-        for (std::int64_t g : front) {
-            const int n = neighbours(g, nb);
-            for (int a = 0; a < n; ++a) {
-                const auto h = static_cast<std::size_t>(nb[a]);
-                if (label[h] == kNone && value[h] > 0.0f) {
-                    label[h] = label[static_cast<std::size_t>(g)];
-                    next.push_back(nb[a]);
-                }
-            }
-        }
-        front.swap(next);
-    }
+    grow(0.0f);
     // 4. Pockets: 6-connected components of the positive samples not labelled outside. A pocket is
     //    filled when little of its boundary is open to the outside (pairs with outside samples, at
     //    most max_open of its boundary pairs; the rest are pairs with negative samples): a cavity
@@ -151,7 +123,7 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options) {
         }
     }
     if (st.cavity_samples == 0) return st;
-    for_each_sample(grid, [&](float& v, std::int64_t g) {
+    detail::for_each_stored_sample(grid, [&](float& v, std::int64_t g) {
         if (flip[static_cast<std::size_t>(g)]) v = -v;
     });
     return st;

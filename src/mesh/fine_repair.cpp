@@ -2,6 +2,7 @@
 #include "pcp/mesh/fine_repair.hpp"
 
 #include "pcp/core/error.hpp"
+#include "mesh/grid_samples.hpp"
 
 #include <Eigen/Core>
 
@@ -13,26 +14,6 @@ namespace pcp {
 
 namespace {
 
-/// Calls fn(value, lattice index) for every stored, non-NaN sample of every block of `grid` (a
-/// sample shared by several blocks once per block that stores it).
-template <class Fn>
-void for_each_stored_sample(SdfGrid& grid, Fn&& fn) {
-    const int R = grid.spec.resolution, n1 = R + 1, B = grid.block_cells, S = B + 1, nb = grid.blocks_per_axis;
-    const std::int64_t per_block = std::int64_t(S) * S * S;
-    for (int b = 0; b < grid.num_blocks(); ++b) {
-        const std::int64_t key = grid.block_keys[static_cast<std::size_t>(b)];
-        const int bx = int(key % nb), by = int((key / nb) % nb), bz = int(key / (std::int64_t(nb) * nb));
-        for (int z = 0; z < S; ++z)
-            for (int y = 0; y < S; ++y)
-                for (int x = 0; x < S; ++x) {
-                    const std::int64_t i = std::int64_t(bx) * B + x, j = std::int64_t(by) * B + y, k = std::int64_t(bz) * B + z;
-                    if (i > R || j > R || k > R) continue;
-                    float& v = grid.values[static_cast<std::size_t>(b * per_block + (std::int64_t(z) * S + y) * S + x)];
-                    if (std::isnan(v)) continue;
-                    fn(v, (k * n1 + j) * n1 + i);
-                }
-    }
-}
 
 }  // namespace
 
@@ -54,7 +35,7 @@ FineRepairStats repair_fine_grid(SdfGrid& grid, const KdTree& cloud, const FineR
     // Signs of the stored lattice points (0: not stored), and their list.
     std::vector<std::int8_t> sign(static_cast<std::size_t>(total), 0);
     std::vector<std::int64_t> stored;
-    for_each_stored_sample(grid, [&](const float& v, std::int64_t g) {
+    detail::for_each_stored_sample(grid, [&](const float& v, std::int64_t g) {
         if (sign[static_cast<std::size_t>(g)] != 0) return;  // shared with a block seen before
         sign[static_cast<std::size_t>(g)] = v < 0 ? -1 : 1;
         stored.push_back(g);
@@ -120,7 +101,7 @@ FineRepairStats repair_fine_grid(SdfGrid& grid, const KdTree& cloud, const FineR
     if (st.flipped_components == 0) return st;
 
     // Negate the flipped components' values in every block that stores them.
-    for_each_stored_sample(grid, [&](float& v, std::int64_t g) {
+    detail::for_each_stored_sample(grid, [&](float& v, std::int64_t g) {
         const std::int32_t c = comp[static_cast<std::size_t>(g)];
         if (c >= 0 && flip[static_cast<std::size_t>(c)]) v = v == 0.0f ? -std::numeric_limits<float>::min() : -v;
     });
