@@ -184,7 +184,9 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     SdfGrid grid = go.band == NarrowBand::NearPoints ? evaluate_sdf_grid(field, spec, go, cloud.unit())
                                                      : evaluate_sdf_grid(field, spec, go);
     // Enclosed pockets of "outside": the hollow shells of noisy scans (include/pcp/mesh/cavity_fill.hpp).
-    r.cavity_fill = fill_cavities(grid, options.cavity_fill);
+    CavityFillOptions fill = options.cavity_fill;
+    if (r.denoise_passes > 0) fill.max_open = fill.noisy_max_open;  // a noisy cloud: only the closed pockets
+    r.cavity_fill = fill_cavities(grid, fill);
     // Membranes and bubbles too thin for the coarse grid (include/pcp/mesh/fine_repair.hpp).
     r.fine_repair = repair_fine_grid(grid, cloud.tree(), options.fine_repair);
     r.winding_corrected = winding.corrected();

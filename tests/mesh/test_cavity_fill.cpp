@@ -57,6 +57,13 @@ TEST_CASE("cavity fill: a pinhole through the shell does not let the outside in"
     CHECK(st.cavities >= 1);
     const pcp::Mesh m = pcp::marching_cubes(grid);
     CHECK(m.vertices.rowwise().norm().minCoeff() > 0.36);  // no inner sheet left
+    // A pocket is filled only when it is closed enough: with no opening allowed, the tunnel keeps it.
+    pcp::SdfGrid strict = untouched;
+    pcp::CavityFillOptions closed_only;
+    closed_only.max_open = 0;
+    const pcp::CavityFillStats kept = pcp::fill_cavities(strict, closed_only);
+    CHECK(kept.pockets >= 1);
+    CHECK(pcp::marching_cubes(strict).vertices.rowwise().norm().minCoeff() < 0.36);  // the inner sheet stays
     // Without the core threshold the tunnel is a way in: the core counts as outside.
     pcp::SdfGrid leaky = untouched;
     pcp::CavityFillOptions thin;
@@ -93,5 +100,8 @@ TEST_CASE("cavity fill: sparse grids are skipped, disabled is the identity, bad 
     CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
     bad = {};
     bad.max_open = 1.5;
+    CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
+    bad = {};
+    bad.noisy_max_open = -0.1;
     CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
 }

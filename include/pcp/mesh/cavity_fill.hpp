@@ -17,7 +17,7 @@
 //     two fronts meet); positive samples neither reaches are bubbles.
 //  4. Pockets: the connected regions of the positive samples not labelled outside (cores, what they
 //     grew into, bubbles). A pocket whose boundary is at most max_open open to the outside (pairs
-//     with outside samples; the rest are pairs with negative ones) is a cavity behind pinholes and is
+//     with outside samples; the rest are pairs with negative ones) is a cavity behind holes and is
 //     negated (|F| kept): the inner sheet and the bubbles vanish, the outer surface stays where the
 //     field put it. A pocket more open than that is a bay of the outside the core threshold cut off:
 //     filling it would put a sheet where the two fronts met, away from the data, so it stays.
@@ -36,7 +36,12 @@ namespace pcp {
 struct CavityFillOptions {
     bool enabled = true;
     double core_cells = 2.0;    ///< delta in units of the largest cell spacing (> 0)
-    double max_open = 0.15;     ///< a pocket is filled when at most this fraction of its boundary is open to the outside
+    /// A pocket is filled when at most this fraction of its boundary is open to the outside.
+    /// Measured on the shared cases (docs/BENCHMARKS.md): 0.5 on clean clouds (the bunny's hollow
+    /// body behind the holes of its shell is filled), 0.15 on noisy ones (at 0.5, pockets among the
+    /// sheets of abc_00994122's noise band are filled too: L2-CD doubles).
+    double max_open = 0.5;
+    double noisy_max_open = 0.15;  ///< what pcp::reconstruct uses instead of max_open for a denoised cloud
     std::int64_t max_samples = std::int64_t(1) << 24;  ///< (R + 1)^3 above this: skipped (R = 128: 2.1e6)
 };
 
