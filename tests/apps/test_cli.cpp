@@ -268,6 +268,31 @@ TEST_CASE("cli: pcp_reconstruct's surface-fit and fine-repair options: bad value
     CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
 }
 
+TEST_CASE("cli: pcp_reconstruct's cavity-fill, smooth and winding-sign options: bad values exit 2 naming the flag", "[cli]") {
+    const struct {
+        const char* args;
+        const char* message;
+    } cases[] = {
+        {"--cavity-fill yes", "--cavity-fill must be on or off (got 'yes')"},
+        {"--smooth maybe", "--smooth must be auto, on or off (got 'maybe')"},
+        {"--winding-sign 1", "--winding-sign must be on or off (got '1')"},
+        {"--winding-near -3", "--winding-near must be in [0, 100]"},
+    };
+    for (const auto& c : cases) {
+        const RunResult r = run(bin("pcp_reconstruct") + " " + c.args + " x.ply");
+        INFO(c.args << " stderr: " << r.err);
+        CHECK(r.exit_code == 2);
+        CHECK(r.err.find(c.message) != std::string::npos);
+    }
+    // Good values pass the option checks: the run then stops at the missing input, naming it.
+    const RunResult good = run(bin("pcp_reconstruct") + " --cavity-fill off --smooth on --winding-sign on --winding-near 1 /nonexistent/x.ply -o '" +
+                               (case_dir("cavity_fill") / "o.ply").string() + "'");
+    INFO("stderr: " << good.err);
+    CHECK(good.exit_code == 1);
+    CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
+    CHECK_FALSE(std::filesystem::exists(case_dir("cavity_fill") / "o.ply"));
+}
+
 TEST_CASE("cli: bad --spreads and --uniform-fraction exit 2 naming the flag", "[cli]") {
     for (const std::string& program : {std::string("pcp_reconstruct"), std::string("pcp_train")}) {
         const RunResult spreads = run(bin(program) + " --spreads 0.5,-1 x.ply");
