@@ -9,6 +9,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <queue>
 #include <vector>
@@ -291,9 +292,7 @@ void WindingSign::apply(const Eigen::Ref<const PointsF>& points, Eigen::Ref<Eige
     const Impl& m = *impl_;
     if (!m.options.enabled || m.nodes.empty()) return;
     PCP_CHECK(points.rows() == values.size(), "winding sign: " << points.rows() << " points but " << values.size() << " values");
-    Eigen::VectorXf dist;
-    const IndexVector nearest = m.cloud->nearest(points, &dist);
-    (void)nearest;
+    const Eigen::VectorXf dist = m.cloud->kth_distance(points, 1);
     const float tau = static_cast<float>(m.stats.tau), lo = static_cast<float>(0.5 - m.options.margin),
                 hi = static_cast<float>(0.5 + m.options.margin);
     std::int64_t changed = 0;
