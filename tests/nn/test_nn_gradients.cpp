@@ -621,3 +621,77 @@ TEST_CASE("nn: stage-2 ablation gradients (Q, F, free code) match finite differe
         }
     }
 }
+
+TEST_CASE("nn: stage-2 gradients with sign-guided columns match finite differences", "[nn]") {
+    // The last m columns carry a side label (+1 outside, -1 inside) and the hinge
+    // w * mean relu(-label * s) instead of the pulling loss; the others are pulled as usual.
+    for (bool train_decoder : {false, true}) {
+        INFO("F trained: " << train_decoder);
+        Stage2Config cfg;
+        cfg.train_decoder = train_decoder;
+        Rng rng(91 + int(train_decoder), 0);
+        const int C = 6, H = 16, L = 8, N = 14, M = 6;
+        const double w = 0.7;
+        BranchMlp<double> F = make_decoder(C, H, L, rng);
+        BranchMlp<double> Q = make_query_net(C, H, L, 0, rng);
+        MatrixXd qg, t;
+        VectorXd labels(M);
+        const MatrixXd none;
+        auto field = [&](const MatrixXd& q) {  // s of each column by the per-sample reference
+            VectorXd s(q.cols());
+            for (Eigen::Index i = 0; i < q.cols(); ++i) {
+                const nnref::Trace tq = nnref::forward(Q, q.col(i), VectorXd(), nullptr);
+                const nnref::Trace tf = nnref::forward(F, VectorXd(q.col(i) + tq.out.head(3)), VectorXd(tq.out.segment(3, C)), nullptr);
+                s(i) = tf.out(0);
+            }
+            return s;
+        };
+        auto loss = [&](nnref::Kinks* k) {
+            const double pulled = stage2_loss_cfg(Q, F, qg.leftCols(N - M), t.leftCols(N - M), none, cfg, k);
+            const VectorXd s = field(qg.rightCols(M));
+            double hinge = 0.0;
+            for (int j = 0; j < M; ++j) hinge += std::max(0.0, -labels(j) * s(j));
+            return pulled + w * hinge / M;
+        };
+        int redraws = 0;
+        for (;;) {
+            qg = randn(3, N, rng, 0.3);
+            t = qg + randn(3, N, rng, 0.05);
+            nnref::Kinks k;
+            stage2_loss_cfg(Q, F, qg, t, none, cfg, &k);
+            const VectorXd s = field(qg.rightCols(M));
+            // Half of the guided columns on the wrong side (they pull), half on the right one; none
+            // at the hinge's kink.
+            for (int j = 0; j < M; ++j) labels(j) = (j % 2 == 0 ? -1.0 : 1.0) * (s(j) > 0 ? 1.0 : -1.0);
+            if (k.min_abs >= 10 * kEps && s.cwiseAbs().minCoeff() >= 1e-3) break;
+            ++redraws;
+        }
+        CHECK(redraws <= 5);
+        Stage2Workspace<double> ws(Q.shape, F.shape, N, cfg);
+        ws.guided = M;
+        ws.guide_labels.head(M) = labels;
+        ws.guide_weight = w;
+        VectorXd dQ(Q.layout.size()), dF(train_decoder ? F.layout.size() : 0), dc(0);
+        const double L0 = ws.loss_and_grad(Q, F, qg, t, none, none, dQ, dF, dc);
+        CHECK(std::abs(L0 - loss(nullptr)) < 1e-12);
+        CHECK(std::abs(ws.loss(Q, F, qg, t, none, none) - L0) < 1e-15);
+        const auto cq = nnref::sample_coords(Q.layout, 48);
+        require_check(nnref::check_gradient(Q.params, dQ, cq, loss, kEps, kTol, kAtol, "dL/dtheta_Q"), int(cq.size()),
+                      "guided: dL/dtheta_Q");
+        if (train_decoder) {
+            const auto cf = nnref::sample_coords(F.layout, 48);
+            require_check(nnref::check_gradient(F.params, dF, cf, loss, kEps, kTol, kAtol, "dL/dtheta_F"), int(cf.size()),
+                          "guided: dL/dtheta_F");
+        }
+        // The guide changes the gradient: without it the same columns are all pulled.
+        ws.guided = 0;
+        VectorXd dQ_plain(Q.layout.size());
+        ws.loss_and_grad(Q, F, qg, t, none, none, dQ_plain, dF, dc);
+        CHECK((dQ_plain - dQ).norm() > 1e-6 * dQ.norm());
+        // Every guided column on the right side: no hinge term at all.
+        ws.guided = M;
+        for (int j = 0; j < M; ++j) ws.guide_labels(j) = field(qg.col(N - M + j))(0) > 0 ? 1.0 : -1.0;
+        const double pulled_only = stage2_loss_cfg(Q, F, qg.leftCols(N - M), t.leftCols(N - M), none, cfg, nullptr);
+        CHECK(std::abs(ws.loss(Q, F, qg, t, none, none) - pulled_only) < 1e-15);
+    }
+}

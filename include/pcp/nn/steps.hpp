@@ -129,6 +129,15 @@ struct Stage2Workspace {
     Mat<S> q_local;         ///< 3 x N: q_l'
     Vec<S> dL_ds;           ///< N: lambda
     Mat<S> dL_dg;           ///< 3 x N: v (only with train_decoder; 3 x 0 otherwise)
+    /// Sign guide (not in the paper; labels from pcp/cloud/visibility.hpp): the last `guided` columns of q_g
+    /// are queries whose side of the surface is known, guide_labels(j) = +1 (outside) or -1
+    /// (inside) for the j-th of them. Their loss is guide_weight * mean_j relu(-label_j s_j),
+    /// added to the pulling loss of the other columns (whose mean it stays); their targets are
+    /// unused. dL/ds = -guide_weight * label_j / guided where the sign is wrong, else 0; g does
+    /// not enter. 0 = no guided columns (the method).
+    Eigen::Index guided = 0;
+    Vec<S> guide_labels;    ///< max_queries entries; the first `guided` are used
+    S guide_weight = S(1);
 };
 
 // ------------------------------------------------------------------------------------------------
