@@ -1,0 +1,92 @@
+// Inside / outside from the cloud alone, by visibility (not in the paper): the labels of the
+// stage-2 sign guide.
+//
+// The pulling loss (METHOD.md §3) is blind to the sign of the field: q - F g/|g| is the same for F
+// and -F, so a fit may settle with the inside of a shape positive under a thin negative shell, or
+// with a wall's orientation reversed (docs/BENCHMARKS.md: the bunny's two outcomes, the built-in
+// shape's plugged hole). Which side a point of space is on can be read from the cloud without
+// normals: grow every input point into a small ball, so that the sampled surface becomes a closed
+// wall of voxels, and cast rays from the point. From the inside of a closed surface no ray gets out;
+// from the outside many do. Concretely:
+//
+//  1. An occupancy grid over the box (occupancy_resolution voxels along its longest edge): a voxel
+//     is blocked when it meets the ball of radius dilation x sampling_scale (kdtree.hpp) around an
+//     input point. That radius is about twice the distance between neighbouring points, enough to
+//     close the gaps of an even sampling, not a hole of the shape.
+//  2. Label cells (resolution along the longest edge) whose centre lies farther than
+//     min_distance x sampling_scale plus half a cell diagonal from every input point, so that the
+//     whole cell is away from the data. From each, `rays` directions (a Fibonacci sphere turned by
+//     a random rotation per cell, seeded) are marched through the occupancy grid to the box's faces.
+//  3. No ray escapes: inside (-1). At least outside_fraction of them escape: outside (+1).
+//     Otherwise (a view out through a hole in the scan, the bottom of a deep slot): unknown (0),
+//     and the guide says nothing there.
+//
+// Wrong labels are possible where no ray can see a true outside (an enclosed cavity, which no
+// scanner sees either) and where the data has a gap wider than the dilation; the guide therefore
+// only asks for the sign (a hinge at zero), never for a value.
+#pragma once
+
+#include "pcp/cloud/kdtree.hpp"
+#include "pcp/core/types.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <vector>
+
+namespace pcp {
+
+struct VisibilityOptions {
+    int resolution = 64;              ///< label cells along the box's longest edge (4..256)
+    int occupancy_resolution = 160;   ///< voxels along the longest edge (8..1024)
+    double dilation = 0.5;            ///< ball radius around each point, x sampling_scale (> 0)
+    double min_distance = 0.5;        ///< cells at least this x sampling_scale (+ half a cell diagonal) from the data (>= 0)
+    int rays = 64;                    ///< directions per cell (8..1024)
+    /// Escaping fraction that makes a cell outside (0, 1]. 0.5, not less: the inside of a scan seen
+    /// through a hole in it (the bunny's open base) is otherwise labelled outside.
+    double outside_fraction = 0.5;
+    std::uint64_t seed = 1;           ///< the per-cell rotations of the ray directions
+    double margin = 0.05;             ///< the labelled box: the cloud's box grown by this on every side (>= 0)
+};
+
+struct VisibilityStats {
+    std::int64_t inside = 0, outside = 0, unknown = 0;  ///< labelled cells (away from the data)
+    std::int64_t near = 0;                              ///< cells too near the data to label
+    double radius = 0;                                  ///< the dilation radius used (unit-box units)
+    double seconds = 0;
+};
+
+/// Cells of a regular grid over a box, each -1 (inside), +1 (outside) or 0 (unknown / near the data).
+struct VisibilityLabels {
+    Eigen::Vector3d origin = Eigen::Vector3d::Zero();  ///< the box's min corner
+    double cell = 0;                                   ///< cell edge (cubic cells)
+    Eigen::Vector3i dims = Eigen::Vector3i::Zero();    ///< cells per axis
+    std::vector<std::int8_t> label;                    ///< x fastest
+    std::vector<std::int32_t> inside_cells, outside_cells;  ///< indices of the labelled cells
+    VisibilityStats stats;
+
+    /// The cell index of (i, j, k).
+    std::size_t index(int i, int j, int k) const {
+        return (static_cast<std::size_t>(k) * static_cast<std::size_t>(dims.y()) + static_cast<std::size_t>(j)) *
+                   static_cast<std::size_t>(dims.x()) + static_cast<std::size_t>(i);
+    }
+    Eigen::Vector3d center(int i, int j, int k) const {
+        return origin + cell * (Eigen::Vector3d(i, j, k).array() + 0.5).matrix();
+    }
+};
+
+/// Labels the cells of `box` (unit-box coordinates, the cloud's box plus a margin) by visibility
+/// through the dilated cloud of `tree`. Throws pcp::Error on bad options, an empty or degenerate
+/// box, or a tree of fewer than 2 points. OpenMP-parallel over cells; deterministic.
+VisibilityLabels label_by_visibility(const KdTree& tree, const Aabb& box, const VisibilityOptions& options = {});
+
+/// The same over the tree's own points' box grown by options.margin on every side.
+VisibilityLabels label_by_visibility(const KdTree& tree, const VisibilityOptions& options = {});
+
+/// `count` points drawn uniformly in the labelled cells (half in inside cells and half in outside
+/// cells when both exist; in proportion to the cells otherwise), with their labels (+1 / -1).
+/// Deterministic in (labels, count, seed, stream). Empty when no cell is labelled.
+void sample_labelled_points(const VisibilityLabels& labels, Eigen::Index count, std::uint64_t seed,
+                            std::uint64_t stream, PointsF& points, Eigen::VectorXf& values);
+
+}  // namespace pcp

@@ -1,0 +1,214 @@
+// Inside / outside labels by visibility through the dilated cloud (see pcp/cloud/visibility.hpp).
+#include "pcp/cloud/visibility.hpp"
+
+#include "pcp/core/error.hpp"
+#include "pcp/core/rng.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace pcp {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// The blocked voxels: those that meet a ball of radius r around an input point.
+struct Occupancy {
+    Eigen::Vector3d origin;
+    double h = 0;
+    Eigen::Vector3i dims;
+    std::vector<std::uint8_t> blocked;
+
+    std::size_t index(int i, int j, int k) const {
+        return (static_cast<std::size_t>(k) * static_cast<std::size_t>(dims.y()) + static_cast<std::size_t>(j)) *
+                   static_cast<std::size_t>(dims.x()) + static_cast<std::size_t>(i);
+    }
+
+    Occupancy(const PointsF& points, const Aabb& box, int resolution, double r) {
+        const Eigen::Vector3d extent = box.extent();
+        h = extent.maxCoeff() / resolution;
+        origin = box.min;
+        for (int c = 0; c < 3; ++c) dims(c) = std::max(1, static_cast<int>(std::ceil(extent(c) / h)));
+        blocked.assign(static_cast<std::size_t>(dims.prod()), 0);
+        const double r2 = r * r;
+        for (Eigen::Index p = 0; p < points.rows(); ++p) {
+            const Eigen::Vector3d x = points.row(p).transpose().cast<double>();
+            Eigen::Vector3i lo, hi;
+            for (int c = 0; c < 3; ++c) {
+                lo(c) = std::max(0, static_cast<int>(std::floor((x(c) - r - origin(c)) / h)));
+                hi(c) = std::min(dims(c) - 1, static_cast<int>(std::floor((x(c) + r - origin(c)) / h)));
+            }
+            for (int k = lo.z(); k <= hi.z(); ++k)
+                for (int j = lo.y(); j <= hi.y(); ++j)
+                    for (int i = lo.x(); i <= hi.x(); ++i) {
+                        // squared distance from x to the voxel's box
+                        double d2 = 0.0;
+                        const Eigen::Vector3i v(i, j, k);
+                        for (int c = 0; c < 3; ++c) {
+                            const double a = origin(c) + h * v(c), b = a + h;
+                            const double d = x(c) < a ? a - x(c) : (x(c) > b ? x(c) - b : 0.0);
+                            d2 += d * d;
+                        }
+                        if (d2 <= r2) blocked[index(i, j, k)] = 1;
+                    }
+        }
+    }
+
+    /// Marches from `from` along unit `dir` in steps of half a voxel: true when it leaves the grid
+    /// without entering a blocked voxel.
+    bool escapes(const Eigen::Vector3d& from, const Eigen::Vector3d& dir) const {
+        const double step = 0.5 * h;
+        Eigen::Vector3d p = from;
+        for (;;) {
+            p += step * dir;
+            Eigen::Vector3i v;
+            for (int c = 0; c < 3; ++c) {
+                const double u = (p(c) - origin(c)) / h;
+                if (u < 0.0 || u >= dims(c)) return true;
+                v(c) = static_cast<int>(u);
+            }
+            if (blocked[index(v.x(), v.y(), v.z())]) return false;
+        }
+    }
+};
+
+/// `n` unit directions spread evenly (a Fibonacci sphere).
+std::vector<Eigen::Vector3d> fibonacci_sphere(int n) {
+    std::vector<Eigen::Vector3d> d(static_cast<std::size_t>(n));
+    const double golden = kPi * (3.0 - std::sqrt(5.0));
+    for (int i = 0; i < n; ++i) {
+        const double z = 1.0 - (2.0 * i + 1.0) / n;
+        const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
+        d[static_cast<std::size_t>(i)] = Eigen::Vector3d(rho * std::cos(golden * i), rho * std::sin(golden * i), z);
+    }
+    return d;
+}
+
+/// A uniformly random rotation (from a random unit quaternion).
+Eigen::Matrix3d random_rotation(Rng& rng) {
+    Eigen::Vector4d q(rng.normal(), rng.normal(), rng.normal(), rng.normal());
+    while (q.norm() < 1e-12) q = Eigen::Vector4d(rng.normal(), rng.normal(), rng.normal(), rng.normal());
+    q.normalize();
+    const double w = q(0), x = q(1), y = q(2), z = q(3);
+    Eigen::Matrix3d R;
+    R << 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+        2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+        2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y);
+    return R;
+}
+
+}  // namespace
+
+VisibilityLabels label_by_visibility(const KdTree& tree, const Aabb& box, const VisibilityOptions& o) {
+    const auto t0 = std::chrono::steady_clock::now();
+    PCP_CHECK(o.resolution >= 4 && o.resolution <= 256, "visibility: resolution must be in 4..256, got " << o.resolution);
+    PCP_CHECK(o.occupancy_resolution >= 8 && o.occupancy_resolution <= 1024,
+              "visibility: occupancy_resolution must be in 8..1024, got " << o.occupancy_resolution);
+    PCP_CHECK(o.rays >= 8 && o.rays <= 1024, "visibility: rays must be in 8..1024, got " << o.rays);
+    PCP_CHECK(std::isfinite(o.dilation) && o.dilation > 0.0, "visibility: dilation must be > 0");
+    PCP_CHECK(std::isfinite(o.min_distance) && o.min_distance >= 0.0, "visibility: min_distance must be >= 0");
+    PCP_CHECK(o.outside_fraction > 0.0 && o.outside_fraction <= 1.0, "visibility: outside_fraction must be in (0, 1]");
+    PCP_CHECK(tree.size() >= 2, "visibility: needs at least 2 points, got " << tree.size());
+    const Eigen::Vector3d extent = box.extent();
+    PCP_CHECK(extent.allFinite() && extent.minCoeff() > 0.0, "visibility: the box must have a positive extent on every axis");
+
+    const double scale = sampling_scale(tree);
+    PCP_CHECK(scale > 0.0, "visibility: the cloud has no spread (all points coincide)");
+    VisibilityLabels out;
+    out.stats.radius = o.dilation * scale;
+    out.origin = box.min;
+    out.cell = extent.maxCoeff() / o.resolution;
+    for (int c = 0; c < 3; ++c) out.dims(c) = std::max(1, static_cast<int>(std::ceil(extent(c) / out.cell)));
+    const std::size_t cells = static_cast<std::size_t>(out.dims.prod());
+    out.label.assign(cells, 0);
+
+    // Which cells are far enough from the data to label.
+    PointsF centers(static_cast<Eigen::Index>(cells), 3);
+    for (int k = 0; k < out.dims.z(); ++k)
+        for (int j = 0; j < out.dims.y(); ++j)
+            for (int i = 0; i < out.dims.x(); ++i)
+                centers.row(static_cast<Eigen::Index>(out.index(i, j, k))) = out.center(i, j, k).cast<float>().transpose();
+    const Eigen::VectorXf dist = tree.kth_distance(centers, 1);
+    const double far = o.min_distance * scale + 0.5 * std::sqrt(3.0) * out.cell;
+    // Rays start at cell centres outside every ball, so never inside a blocked voxel's ball; they
+    // also need the dilation radius itself to be clear.
+    const double clear = std::max(far, out.stats.radius + 0.5 * std::sqrt(3.0) * extent.maxCoeff() / o.occupancy_resolution);
+
+    const Occupancy occ(tree.points(), box, o.occupancy_resolution, out.stats.radius);
+    const std::vector<Eigen::Vector3d> dirs = fibonacci_sphere(o.rays);
+    const int needed = std::max(1, static_cast<int>(std::ceil(o.outside_fraction * o.rays - 1e-9)));
+    const auto n_cells = static_cast<std::int64_t>(cells);
+#pragma omp parallel for schedule(dynamic, 64)
+    for (std::int64_t c = 0; c < n_cells; ++c) {
+        if (dist(c) < clear) continue;
+        Rng rng(o.seed, 0x7151B1E0000000ull + static_cast<std::uint64_t>(c));
+        const Eigen::Matrix3d R = random_rotation(rng);
+        const Eigen::Vector3d from = centers.row(c).transpose().cast<double>();
+        int escaped = 0;
+        std::int8_t label = 0;
+        for (int r = 0; r < o.rays; ++r) {
+            if (occ.escapes(from, R * dirs[static_cast<std::size_t>(r)])) ++escaped;
+            if (escaped >= needed) {
+                label = 1;
+                break;
+            }
+            if (escaped > 0 && escaped + (o.rays - r - 1) < needed) break;  // neither inside nor outside
+        }
+        if (label == 0 && escaped == 0) label = -1;
+        out.label[static_cast<std::size_t>(c)] = label;
+    }
+    for (std::size_t c = 0; c < cells; ++c) {
+        if (dist(static_cast<Eigen::Index>(c)) < clear) {
+            ++out.stats.near;
+        } else if (out.label[c] < 0) {
+            ++out.stats.inside;
+            out.inside_cells.push_back(static_cast<std::int32_t>(c));
+        } else if (out.label[c] > 0) {
+            ++out.stats.outside;
+            out.outside_cells.push_back(static_cast<std::int32_t>(c));
+        } else {
+            ++out.stats.unknown;
+        }
+    }
+    out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+}
+
+VisibilityLabels label_by_visibility(const KdTree& tree, const VisibilityOptions& o) {
+    PCP_CHECK(std::isfinite(o.margin) && o.margin >= 0.0, "visibility: margin must be >= 0");
+    PCP_CHECK(tree.size() >= 2, "visibility: needs at least 2 points, got " << tree.size());
+    const PointsF& p = tree.points();
+    Aabb box;
+    box.min = p.colwise().minCoeff().transpose().cast<double>().array() - o.margin;
+    box.max = p.colwise().maxCoeff().transpose().cast<double>().array() + o.margin;
+    return label_by_visibility(tree, box, o);
+}
+
+void sample_labelled_points(const VisibilityLabels& labels, Eigen::Index count, std::uint64_t seed,
+                            std::uint64_t stream, PointsF& points, Eigen::VectorXf& values) {
+    const std::size_t ni = labels.inside_cells.size(), no = labels.outside_cells.size();
+    if (count <= 0 || ni + no == 0) {
+        points.resize(0, 3);
+        values.resize(0);
+        return;
+    }
+    points.resize(count, 3);
+    values.resize(count);
+    Rng rng(seed, stream);
+    const Eigen::Index n_inside = (ni > 0 && no > 0) ? count / 2 : (ni > 0 ? count : 0);
+    const std::int64_t dx = labels.dims.x(), dxy = dx * labels.dims.y();
+    for (Eigen::Index s = 0; s < count; ++s) {
+        const bool inside = s < n_inside;
+        const std::vector<std::int32_t>& from = inside ? labels.inside_cells : labels.outside_cells;
+        const std::int64_t c = from[static_cast<std::size_t>(rng.below(from.size()))];
+        const Eigen::Vector3d ijk(static_cast<double>(c % dx), static_cast<double>((c / dx) % labels.dims.y()),
+                                  static_cast<double>(c / dxy));
+        const Eigen::Vector3d u(rng.uniform(), rng.uniform(), rng.uniform());
+        points.row(s) = (labels.origin + labels.cell * (ijk + u)).cast<float>().transpose();
+        values(s) = inside ? -1.0f : 1.0f;
+    }
+}
+
+}  // namespace pcp

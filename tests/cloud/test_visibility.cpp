@@ -1,0 +1,153 @@
+// Tests for pcp/cloud/visibility.hpp: inside / outside labels by visibility through the dilated
+// cloud, checked against exact signed distances of analytic shapes.
+#include "pcp/cloud/prepared_cloud.hpp"
+#include "pcp/cloud/shapes.hpp"
+#include "pcp/cloud/visibility.hpp"
+#include "pcp/core/error.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <functional>
+
+namespace {
+
+pcp::Aabb grown_box(const pcp::PointsF& unit, double margin) {
+    pcp::Aabb box;
+    box.min = unit.colwise().minCoeff().transpose().cast<double>().array() - margin;
+    box.max = unit.colwise().maxCoeff().transpose().cast<double>().array() + margin;
+    return box;
+}
+
+struct Agreement {
+    int inside = 0, outside = 0, wrong = 0;
+};
+
+/// Every labelled cell's centre, mapped back to the shape's frame, against the exact SDF.
+Agreement check_labels(const pcp::VisibilityLabels& l, const pcp::PreparedCloud& cloud,
+                       const std::function<double(const Eigen::Vector3d&)>& sdf) {
+    Agreement a;
+    for (int k = 0; k < l.dims.z(); ++k)
+        for (int j = 0; j < l.dims.y(); ++j)
+            for (int i = 0; i < l.dims.x(); ++i) {
+                const int label = l.label[l.index(i, j, k)];
+                if (label == 0) continue;
+                pcp::Points c(1, 3);
+                c.row(0) = l.center(i, j, k).transpose();
+                const double d = sdf(cloud.normalization().from_unit(c).row(0).transpose());
+                if (label < 0) ++a.inside;
+                if (label > 0) ++a.outside;
+                if ((label < 0) != (d < 0)) ++a.wrong;
+            }
+    return a;
+}
+
+}  // namespace
+
+TEST_CASE("visibility: a sphere's inside and outside are labelled, and nothing wrongly", "[visibility]") {
+    const pcp::PointCloud s = pcp::sample_sphere(6000, 0.4, Eigen::Vector3d::Zero(), 3);
+    const pcp::PreparedCloud cloud(s.points, "sphere", 2);
+    const pcp::VisibilityLabels l = pcp::label_by_visibility(cloud.tree(), grown_box(cloud.unit(), 0.05));
+    const Agreement a = check_labels(l, cloud, [](const Eigen::Vector3d& p) { return p.norm() - 0.4; });
+    CHECK(a.wrong == 0);
+    CHECK(a.inside > 100);
+    CHECK(a.outside > 1000);
+    CHECK(l.stats.inside == a.inside);
+    CHECK(l.stats.inside + l.stats.outside + l.stats.unknown + l.stats.near == std::int64_t(l.label.size()));
+    CHECK(l.inside_cells.size() == std::size_t(a.inside));
+}
+
+TEST_CASE("visibility: the default shape's through-hole is outside, its block inside", "[visibility]") {
+    const pcp::PointCloud s = pcp::sample_default_shape(20000, 0.0, 5);
+    const pcp::PreparedCloud cloud(s.points, "default shape", 2);
+    // The middle of the hole sees out through its two ends (about 16 % of the directions): outside
+    // at an outside_fraction of 0.1, unknown at the default 0.5; never inside.
+    pcp::VisibilityOptions o;
+    o.outside_fraction = 0.1;
+    const pcp::VisibilityLabels l = pcp::label_by_visibility(cloud.tree(), grown_box(cloud.unit(), 0.05), o);
+    const Agreement a = check_labels(l, cloud, [](const Eigen::Vector3d& p) { return pcp::default_shape_sdf(p); });
+    CHECK(a.wrong == 0);
+    CHECK(a.inside > 50);
+    const pcp::VisibilityLabels d = pcp::label_by_visibility(cloud.tree(), grown_box(cloud.unit(), 0.05));
+    CHECK(check_labels(d, cloud, [](const Eigen::Vector3d& p) { return pcp::default_shape_sdf(p); }).wrong == 0);
+    CHECK(d.stats.outside < l.stats.outside);
+    // Cells on the hole's axis (x = -0.2, y = 0, inside the block's z range) are outside.
+    int hole_outside = 0;
+    for (int k = 0; k < l.dims.z(); ++k)
+        for (int j = 0; j < l.dims.y(); ++j)
+            for (int i = 0; i < l.dims.x(); ++i) {
+                pcp::Points c(1, 3);
+                c.row(0) = l.center(i, j, k).transpose();
+                const Eigen::Vector3d p = cloud.normalization().from_unit(c).row(0).transpose();
+                if (std::hypot(p.x() + 0.2, p.y()) < 0.06 && std::abs(p.z()) < 0.15 && l.label[l.index(i, j, k)] > 0)
+                    ++hole_outside;
+            }
+    CHECK(hole_outside >= 3);
+}
+
+TEST_CASE("visibility: from inside an open shell the opening is seen, so nothing there is inside", "[visibility]") {
+    // A sphere with its cap above z = 0.25 cut away: the centre sees out through the cap (about 19 %
+    // of the directions), and without the cut it sees nothing.
+    const pcp::PointCloud full = pcp::sample_sphere(8000, 0.4, Eigen::Vector3d::Zero(), 4);
+    pcp::Points kept(full.points.rows(), 3);
+    Eigen::Index n = 0;
+    for (Eigen::Index i = 0; i < full.points.rows(); ++i)
+        if (full.points(i, 2) < 0.25) kept.row(n++) = full.points.row(i);
+    kept.conservativeResize(n, 3);
+    const pcp::PreparedCloud open(kept, "open sphere", 2);
+    const pcp::VisibilityLabels l = pcp::label_by_visibility(open.tree(), grown_box(open.unit(), 0.05));
+    int inside_near_centre = 0;
+    for (int k = 0; k < l.dims.z(); ++k)
+        for (int j = 0; j < l.dims.y(); ++j)
+            for (int i = 0; i < l.dims.x(); ++i) {
+                pcp::Points c(1, 3);
+                c.row(0) = l.center(i, j, k).transpose();
+                const Eigen::Vector3d p = open.normalization().from_unit(c).row(0).transpose();
+                if (p.norm() < 0.1 && l.label[l.index(i, j, k)] < 0) ++inside_near_centre;
+            }
+    CHECK(inside_near_centre == 0);
+}
+
+TEST_CASE("visibility: labels are deterministic, samples lie in cells of their label", "[visibility]") {
+    const pcp::PointCloud s = pcp::sample_torus(6000, 0.3, 0.12, 6);
+    const pcp::PreparedCloud cloud(s.points, "torus", 2);
+    const pcp::Aabb box = grown_box(cloud.unit(), 0.05);
+    const pcp::VisibilityLabels a = pcp::label_by_visibility(cloud.tree(), box);
+    const pcp::VisibilityLabels b = pcp::label_by_visibility(cloud.tree(), box);
+    CHECK(a.label == b.label);
+    REQUIRE(!a.inside_cells.empty());
+    REQUIRE(!a.outside_cells.empty());
+    pcp::PointsF pts, pts2;
+    Eigen::VectorXf vals, vals2;
+    pcp::sample_labelled_points(a, 200, 7, 3, pts, vals);
+    pcp::sample_labelled_points(a, 200, 7, 3, pts2, vals2);
+    CHECK(pts == pts2);
+    REQUIRE(pts.rows() == 200);
+    CHECK((vals.array() < 0).count() == 100);
+    for (Eigen::Index i = 0; i < pts.rows(); ++i) {
+        const Eigen::Vector3d u = (pts.row(i).transpose().cast<double>() - a.origin) / a.cell;
+        const int label = a.label[a.index(int(u.x()), int(u.y()), int(u.z()))];
+        REQUIRE(label == (vals(i) < 0 ? -1 : 1));
+    }
+}
+
+TEST_CASE("visibility: bad options and degenerate input are refused", "[visibility]") {
+    const pcp::PointCloud s = pcp::sample_sphere(500, 0.4, Eigen::Vector3d::Zero(), 3);
+    const pcp::PreparedCloud cloud(s.points, "sphere", 2);
+    const pcp::Aabb box = grown_box(cloud.unit(), 0.05);
+    pcp::VisibilityOptions o;
+    o.resolution = 2;
+    CHECK_THROWS_AS(pcp::label_by_visibility(cloud.tree(), box, o), pcp::Error);
+    o = {};
+    o.rays = 0;
+    CHECK_THROWS_AS(pcp::label_by_visibility(cloud.tree(), box, o), pcp::Error);
+    o = {};
+    o.dilation = 0;
+    CHECK_THROWS_AS(pcp::label_by_visibility(cloud.tree(), box, o), pcp::Error);
+    o = {};
+    o.outside_fraction = 1.5;
+    CHECK_THROWS_AS(pcp::label_by_visibility(cloud.tree(), box, o), pcp::Error);
+    pcp::Aabb flat = box;
+    flat.max.z() = flat.min.z();
+    CHECK_THROWS_AS(pcp::label_by_visibility(cloud.tree(), flat, {}), pcp::Error);
+}
