@@ -94,6 +94,14 @@ int main(int argc, char** argv) {
             ("sign-repair-parity", "Also flip coarse samples whose sign disagrees with at least this many of their 6 "
                                    "axis-ray parity votes (0 = off, 1..6; include/pcp/mesh/sign_repair.hpp)",
              cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.parity_votes)))
+            ("sign-guide", "on | off: during the query-network fit, tell the field which side of the surface the points "
+                           "away from the data are on, by visibility through the cloud (not in the paper; "
+                           "include/pcp/cloud/visibility.hpp)",
+             cxxopts::value<std::string>()->default_value(d.fit.sign_guide.enabled ? "on" : "off"))
+            ("label-votes", "With N > 0, the sign repair also flips a region away from the data when at least N of its "
+                            "samples, and more than agree, are on the other side by visibility through the cloud (0 = off; "
+                            "not in the paper; include/pcp/mesh/sign_repair.hpp)",
+             cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.min_label_votes)))
             ("winding-sign", "on | off: away from the data, give the field the sign of the generalised winding number of "
                              "the input points oriented by the field (inner sheets, plugged holes, bubbles; not in the paper; "
                              "include/pcp/mesh/winding_sign.hpp)",
@@ -197,6 +205,13 @@ int main(int argc, char** argv) {
         if (args.count("sign-repair-resolution")) o.sign_repair.resolution = args["sign-repair-resolution"].as<int>();
         if (o.sign_repair.resolution < 2 || o.sign_repair.resolution > 256)
             throw pcp::cli::UsageError("--sign-repair-resolution must be in [2, 256]");
+        if (args.count("sign-guide")) {
+            const std::string v = args["sign-guide"].as<std::string>();
+            if (v != "on" && v != "off") throw pcp::cli::UsageError("--sign-guide must be on or off (got '" + v + "')");
+            o.fit.sign_guide.enabled = v == "on";
+        }
+        if (args.count("label-votes")) o.sign_repair.min_label_votes = args["label-votes"].as<int>();
+        if (o.sign_repair.min_label_votes < 0) throw pcp::cli::UsageError("--label-votes must be >= 0");
         if (args.count("winding-sign")) {
             const std::string v = args["winding-sign"].as<std::string>();
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--winding-sign must be on or off (got '" + v + "')");
@@ -301,8 +316,17 @@ int main(int argc, char** argv) {
                   : ", winding sign changed " + std::to_string(report.winding_corrected) + " field values (" +
                         std::to_string(report.winding_sign.confident) + " of " + std::to_string(report.winding_sign.points) +
                         " points oriented by the field, the others by their neighbours; " + fmt(report.winding_sign.seconds) + " s)")
+          << (report.visibility.inside + report.visibility.outside + report.visibility.unknown + report.visibility.near > 0
+                  ? ", visibility labels " + std::to_string(report.visibility.inside) + " inside / " +
+                        std::to_string(report.visibility.outside) + " outside / " + std::to_string(report.visibility.unknown) +
+                        " unknown cells (" + fmt(report.visibility.seconds) + " s)"
+                  : std::string())
+          << (report.guided_per_step > 0 ? ", sign guide " + std::to_string(report.guided_per_step) + " queries per step"
+                                         : std::string(", sign guide off"))
           << ", sign repair flipped " << report.sign_repair.flipped_components << " of " << report.sign_repair.components
           << " regions away from the data"
+          << (report.sign_repair.label_flipped > 0 ? " (" + std::to_string(report.sign_repair.label_flipped) + " by the visibility labels)"
+                                                   : std::string())
           << (o.sign_repair.parity_votes > 0 ? " and " + std::to_string(report.sign_repair.parity_flipped) + " coarse samples by parity" : std::string())
           << ", cavity fill " << (report.cavity_fill.skipped ? std::string("skipped (grid too large)")
                                    : "filled " + std::to_string(report.cavity_fill.cavities) + " pockets")

@@ -60,6 +60,8 @@ struct ReconstructReport {
     CavityFillStats cavity_fill;     ///< what the cavity fill negated
     WindingSignStats winding_sign;   ///< the oriented normals and the winding-number tree
     std::int64_t winding_corrected = 0;  ///< field values whose sign the winding number changed
+    VisibilityStats visibility;      ///< the visibility labels (all 0: not computed)
+    int guided_per_step = 0;         ///< the fit's sign-guided queries per step (0: guide off)
     double prior_loss = 0, fit_loss = 0;
     std::int64_t fit_steps = 0;
     int denoise_passes = 0;          ///< passes applied to the input (DenoiseOptions; resolved when automatic)

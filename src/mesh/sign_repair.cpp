@@ -35,7 +35,8 @@ struct Group {
 
 }  // namespace
 
-SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& tree, const SignRepairOptions& options) {
+SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& tree, const SignRepairOptions& options,
+                       const VisibilityLabels* labels) {
     const PointsF& points = tree.points();
     PCP_CHECK(options.resolution >= 2 && options.resolution <= 256,
               "sign repair: resolution must be in [2, 256] (got " << options.resolution << ")");
@@ -46,6 +47,7 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& t
               "sign repair: max_unsupported must be in [0, 1) (got " << options.max_unsupported << ")");
     PCP_CHECK(options.parity_votes >= 0 && options.parity_votes <= 6,
               "sign repair: parity_votes must be in [0, 6] (got " << options.parity_votes << ")");
+    PCP_CHECK(options.min_label_votes >= 0, "sign repair: min_label_votes must be >= 0 (got " << options.min_label_votes << ")");
     PCP_CHECK(points.rows() >= 2, "sign repair: needs at least 2 points (got " << points.rows() << ")");
     spec_.resolution = options.resolution;
     spec_.box = box;
@@ -185,6 +187,31 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& t
     for (std::int64_t n = 0; n < count; ++n) {
         const int c = comp[n];
         if (c >= 0) current[n] = static_cast<std::int8_t>(groups[dsu.find(c)].sign != original_sign[c] ? -sign[n] : sign[n]);
+    }
+
+    // 3c'. Visibility labels: a region (after the flips) whose labelled samples mostly say the
+    // other side is flipped, unless it touches the box.
+    if (labels && options.min_label_votes > 0 && !labels->label.empty()) {
+        std::unordered_map<int, std::pair<std::int64_t, std::int64_t>> votes;  // root -> (agree, disagree)
+        for (std::int64_t n = 0; n < count; ++n) {
+            if (near[n]) continue;
+            const Eigen::Vector3d u = (nodes.row(n).transpose().cast<double>() - labels->origin) / labels->cell;
+            if ((u.array() < 0.0).any() || u.x() >= labels->dims.x() || u.y() >= labels->dims.y() || u.z() >= labels->dims.z())
+                continue;
+            const int l = labels->label[labels->index(int(u.x()), int(u.y()), int(u.z()))];
+            if (l == 0) continue;
+            auto& v = votes[dsu.find(comp[n])];
+            if ((current[n] > 0) == (l > 0)) ++v.first;
+            else ++v.second;
+        }
+        std::vector<char> flip_root(groups.size(), 0);
+        for (const auto& [root, v] : votes) {
+            if (groups[root].touches_box || v.second < options.min_label_votes || v.second <= v.first) continue;
+            flip_root[static_cast<std::size_t>(root)] = 1;
+            ++stats_.label_flipped;
+        }
+        for (std::int64_t n = 0; n < count; ++n)
+            if (!near[n] && flip_root[static_cast<std::size_t>(dsu.find(comp[n]))]) current[n] = static_cast<std::int8_t>(-current[n]);
     }
 
     // 3d. Parity vote: per axis line, the near-data bands (runs of near samples) before and after

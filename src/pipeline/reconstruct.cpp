@@ -124,12 +124,23 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     t0 = std::chrono::steady_clock::now();
     QueryFitOptions fo = options.fit;
     fo.schedule.progress = chain(fo.schedule.progress, options.progress);
-    QueryNetFitter fitter(cloud, *prior, fo);
+    SignRepairOptions so = options.sign_repair;
+    // Inside / outside by visibility through the cloud (include/pcp/cloud/visibility.hpp): the
+    // labels of the fit's sign guide and of the sign repair's label vote.
+    VisibilityLabels labels;
+    if (fo.sign_guide.enabled || (so.enabled && so.min_label_votes > 0)) {
+        VisibilityOptions vo = fo.sign_guide.visibility;
+        vo.seed = fo.schedule.seed;
+        labels = label_by_visibility(cloud.tree(), vo);
+    }
+    r.visibility = labels.stats;
+    QueryNetFitter fitter(cloud, *prior, fo, &labels);
     if (!fitter.run()) {
         r.cancelled = true;
         return Mesh{};
     }
     if (options.keep_checkpoints && !ckpt.empty()) fitter.checkpoint(ckpt);
+    r.guided_per_step = fitter.guided_per_step();
     r.fit_loss = fitter.recent_loss();
     r.fit_steps = fitter.steps_done();
     r.seconds_fit = seconds_since(t0);
@@ -168,9 +179,8 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     };
     // Regions whose sign the data does not support are flipped (include/pcp/mesh/sign_repair.hpp);
     // the coarse grid is never finer than the fine one.
-    SignRepairOptions so = options.sign_repair;
     so.resolution = std::min(so.resolution, options.resolution);
-    const SignRepair repair(oriented, spec.box, cloud.tree(), so);
+    const SignRepair repair(oriented, spec.box, cloud.tree(), so, &labels);
     r.sign_repair = repair.stats();
     const SdfBatchFn field = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
         oriented(q, v);

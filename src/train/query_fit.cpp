@@ -84,6 +84,12 @@ struct QueryNetFitter::Impl {
     Eigen::Vector3f grid_lo = Eigen::Vector3f::Zero(), grid_extent = Eigen::Vector3f::Zero();
     int grid = 1;
     MatF cond;              ///< C x batch: the gathered conditions of a step
+    // The sign guide: the labelled cells, and the guided queries of a step (the last `guided`
+    // columns of q).
+    VisibilityLabels labels;
+    int guided = 0;
+    PointsF guide_points;
+    Eigen::VectorXf guide_values;
 
     int region_of(const Eigen::Vector3f& p) const {
         int id = 0;
@@ -131,7 +137,8 @@ void QueryNetFitter::Impl::prepare_region_conditions(const LocalPrior& prior) {
     }
 }
 
-QueryNetFitter::QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& prior, const QueryFitOptions& options)
+QueryNetFitter::QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& prior, const QueryFitOptions& options,
+                               const VisibilityLabels* labels)
     : impl_(std::make_unique<Impl>()) {
     Impl& m = *impl_;
     m.options = options;
@@ -145,6 +152,15 @@ QueryNetFitter::QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& pri
         const QuerySet set = sample_queries(cloud.tree(), options.sampling, sched.seed);
         m.queries = set.queries.transpose();
         m.targets = set.targets.transpose();
+    }
+    if (options.sign_guide.enabled) {
+        const SignGuideOptions& g = options.sign_guide;
+        PCP_CHECK(g.fraction > 0.0 && g.fraction <= 1.0 && g.weight > 0.0 && std::isfinite(g.weight) && g.until > 0.0 &&
+                      g.until <= 1.0,
+                  "query fitting: sign guide fraction and until must be in (0, 1], weight > 0");
+        m.labels = labels ? *labels : label_by_visibility(cloud.tree(), g.visibility);
+        if (!m.labels.inside_cells.empty() || !m.labels.outside_cells.empty())
+            m.guided = std::max(1, static_cast<int>(std::lround(g.fraction * options.queries_per_step)));
     }
     m.config = stage2_config(options.ablation);
     const int C = prior.decoder().shape.in_b;
@@ -160,10 +176,11 @@ QueryNetFitter::QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& pri
     }
     if (options.ablation == QueryAblation::PointNetCode) {
         m.prepare_region_conditions(prior);
-        m.cond.resize(C, options.queries_per_step);
+        m.cond.resize(C, options.queries_per_step + m.guided);
     }
-    m.trainer = std::make_unique<nn::Stage2Trainer<float>>(query_net, decoder, options.queries_per_step,
+    m.trainer = std::make_unique<nn::Stage2Trainer<float>>(query_net, decoder, options.queries_per_step + m.guided,
                                                            detail::make_optim(sched, options.steps), m.config);
+    m.trainer->workspace.guide_weight = static_cast<float>(options.sign_guide.weight);
     if (options.ablation == QueryAblation::FreeCode) {  // DeepSDF's code initialisation, N(0, 1/C)
         nn::Rng crng(sched.seed, 204);
         for (Eigen::Index i = 0; i < m.trainer->code.size(); ++i)
@@ -177,13 +194,21 @@ QueryNetFitter::QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& pri
            << " qpp=" << options.sampling.queries_per_point << " spreads=";
         for (float x : options.sampling.spreads) fp << x << ",";
         fp << " uniform=" << options.sampling.uniform_fraction << "/"
-           << options.sampling.uniform_margin << " points=" << cloud.size() << std::hex
+           << options.sampling.uniform_margin << " points=" << cloud.size();
+        if (m.guided > 0) {
+            const SignGuideOptions& g = options.sign_guide;
+            const VisibilityOptions& v = g.visibility;
+            fp << " guide=" << g.fraction << "/" << g.weight << "/" << g.until << "/" << v.margin << "/" << v.resolution << "/"
+               << v.occupancy_resolution << "/" << v.dilation << "/" << v.min_distance << "/" << v.rays << "/"
+               << v.outside_fraction;
+        }
+        fp << std::hex
            << " data=" << nn::fnv1a64(cloud.unit().data(), static_cast<std::size_t>(cloud.unit().size()) * sizeof(float))
            << " prior=" << nn::fnv1a64(prior.decoder().params.data(), static_cast<std::size_t>(prior.decoder().params.size()) * sizeof(float));
         m.checkpoint_id.fingerprint = fp.str();
     }
-    m.q.resize(3, options.queries_per_step);
-    m.t.resize(3, options.queries_per_step);
+    m.q.resize(3, options.queries_per_step + m.guided);
+    m.t.setZero(3, options.queries_per_step + m.guided);
 }
 
 QueryNetFitter::~QueryNetFitter() = default;
@@ -191,17 +216,30 @@ QueryNetFitter::~QueryNetFitter() = default;
 std::int64_t QueryNetFitter::steps_done() const { return impl_->trainer->steps; }
 const PreparedCloud& QueryNetFitter::cloud() const { return *impl_->cloud; }
 double QueryNetFitter::recent_loss() const { return impl_->recent.mean(); }
+int QueryNetFitter::guided_per_step() const { return impl_->guided; }
 
 double QueryNetFitter::step() {
     Impl& m = *impl_;
     const std::int64_t s = m.trainer->steps;
-    detail::draw_batch(m.queries, m.targets, Rng(m.options.schedule.seed ^ 0x5EED0003ull, static_cast<std::uint64_t>(s)), m.q, m.t);
+    const Eigen::Index batch = m.options.queries_per_step;
+    detail::draw_batch(m.queries, m.targets, Rng(m.options.schedule.seed ^ 0x5EED0003ull, static_cast<std::uint64_t>(s)),
+                       m.q.leftCols(batch), m.t.leftCols(batch));
+    const bool guiding = m.guided > 0 && static_cast<double>(s) < m.options.sign_guide.until * static_cast<double>(m.options.steps);
+    const Eigen::Index cols = batch + (guiding ? m.guided : 0);
+    m.trainer->workspace.guided = 0;
+    if (guiding) {
+        sample_labelled_points(m.labels, m.guided, m.options.schedule.seed ^ 0x5EED0006ull, static_cast<std::uint64_t>(s),
+                               m.guide_points, m.guide_values);
+        m.q.rightCols(m.guided) = m.guide_points.transpose();
+        m.trainer->workspace.guided = m.guided;
+        m.trainer->workspace.guide_labels.head(m.guided) = m.guide_values;
+    }
     double loss;
     if (m.config.condition == nn::QueryCondition::Given) {
-        m.gather_conditions(m.q, m.cond);
-        loss = m.trainer->step(m.q, m.t, m.codes, m.cond);
+        m.gather_conditions(m.q.leftCols(cols), m.cond.leftCols(cols));
+        loss = m.trainer->step(m.q.leftCols(cols), m.t.leftCols(cols), m.codes, m.cond.leftCols(cols));
     } else {
-        loss = m.trainer->step(m.q, m.t, m.codes);
+        loss = m.trainer->step(m.q.leftCols(cols), m.t.leftCols(cols), m.codes);
     }
     detail::check_loss(loss, "query fitting", s);
     m.recent.push(loss);

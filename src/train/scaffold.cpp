@@ -29,7 +29,7 @@ nn::OptimOptions make_optim(const TrainingSchedule& s, std::int64_t total_steps)
     return optim;
 }
 
-void draw_batch(const MatF& pool_queries, const MatF& pool_targets, Rng rng, MatF& q, MatF& t) {
+void draw_batch(const MatF& pool_queries, const MatF& pool_targets, Rng rng, Eigen::Ref<MatF> q, Eigen::Ref<MatF> t) {
     const auto available = static_cast<std::uint64_t>(pool_queries.cols());
     for (Eigen::Index i = 0; i < q.cols(); ++i) {
         const auto j = static_cast<Eigen::Index>(rng.below(available));

@@ -27,7 +27,7 @@ using MatF = nn::Mat<float>;
 nn::OptimOptions make_optim(const TrainingSchedule& schedule, std::int64_t total_steps);
 
 /// Fills the columns of q and t (3 x n) with pool columns drawn with replacement by `rng`.
-void draw_batch(const MatF& pool_queries, const MatF& pool_targets, Rng rng, MatF& q, MatF& t);
+void draw_batch(const MatF& pool_queries, const MatF& pool_targets, Rng rng, Eigen::Ref<MatF> q, Eigen::Ref<MatF> t);
 
 /// Throws "<stage>: the loss became <loss> at step <step>; ..." for a non-finite loss.
 void check_loss(double loss, const char* stage, std::int64_t step);

@@ -156,3 +156,42 @@ TEST_CASE("ablation: reconstruct() in the no-prior mode trains no self-prior", "
     CHECK(report.fit_steps == 150);
     CHECK(mesh.faces.rows() > 0);
 }
+
+TEST_CASE("sign guide: guided queries join the batch and push the field to the labelled sides and change the fingerprint", "[ablation]") {
+    const ThreadsGuard threads(1);
+    const std::int64_t steps = 60;
+    pcp::QueryFitOptions plain = toy_fit(QueryAblation::None, steps);
+    pcp::QueryFitOptions guided = plain;
+    guided.sign_guide.enabled = true;
+    guided.sign_guide.fraction = 0.5;
+    guided.sign_guide.weight = 10.0;
+    guided.sign_guide.until = 1.0;
+    const pcp::VisibilityLabels labels = pcp::label_by_visibility(torus().tree(), guided.sign_guide.visibility);
+    REQUIRE(!labels.inside_cells.empty());
+    REQUIRE(!labels.outside_cells.empty());
+    pcp::QueryNetFitter a(torus(), toy_prior(), plain), b(torus(), toy_prior(), guided);
+    CHECK(a.guided_per_step() == 0);
+    CHECK(b.guided_per_step() == 100);
+    for (std::int64_t s = 0; s < steps; ++s) {
+        a.step();
+        b.step();
+    }
+    // Points of the labelled cells on the side their label says.
+    pcp::PointsF pts;
+    Eigen::VectorXf side;
+    pcp::sample_labelled_points(labels, 2000, 11, 0, pts, side);
+    auto agreement = [&](const pcp::QueryNetFitter& f) {
+        Eigen::VectorXf v(pts.rows());
+        f.sdf(pts, v);
+        return double((v.array() * side.array() > 0).count()) / double(pts.rows());
+    };
+    const double without = agreement(a), with = agreement(b);
+    INFO("labelled points on their side: " << without << " without the guide, " << with << " with it");
+    CHECK(with > 0.9);  // measured 0.943 (0.712 without the guide)
+    CHECK(with > without);
+    // The guide is part of the fingerprint.
+    const std::string dir = std::string(PCP_TEST_TMP_DIR) + "/ablation";
+    std::filesystem::create_directories(dir);
+    b.checkpoint(dir + "/guided.ckpt");
+    CHECK_THROWS_WITH(a.resume(dir + "/guided.ckpt"), Catch::Contains("other inputs or settings"));
+}

@@ -23,6 +23,7 @@
 #pragma once
 
 #include "pcp/cloud/kdtree.hpp"
+#include "pcp/cloud/visibility.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 #include "pcp/core/types.hpp"
 
@@ -45,6 +46,11 @@ struct SignRepairOptions {
     /// of its 6 votes is flipped (this also reaches regions connected to the box, such as a
     /// second sheet inside a thick part with a gap in the data beside it). 0 = off.
     int parity_votes = 0;
+    /// With visibility labels (pcp/cloud/visibility.hpp, given to the constructor): after the
+    /// component flips, a region whose labelled coarse samples mostly disagree with its sign (at
+    /// least `min_label_votes` of them, more than agree) is flipped, unless it touches the box.
+    /// 0 = off, the default: measured and left off (docs/BENCHMARKS.md, "Visibility labels").
+    int min_label_votes = 0;
 };
 
 struct SignRepairStats {
@@ -53,6 +59,7 @@ struct SignRepairStats {
     int flipped_components = 0;         ///< of which flipped
     std::int64_t flipped_samples = 0;   ///< coarse samples whose sign was flipped
     std::int64_t parity_flipped = 0;    ///< of which by the parity vote (SignRepairOptions::parity_votes)
+    int label_flipped = 0;              ///< regions flipped by the visibility labels (min_label_votes)
     double tau = 0;                     ///< the "near the data" distance used (unit-box units)
 };
 
@@ -67,7 +74,9 @@ public:
     /// @param cloud   a tree over the input cloud (its points: N x 3, same frame, N >= 2)
     /// The zero level set is repaired (pass the field minus the level for another one).
     /// Throws pcp::Error on bad options or a non-finite field value.
-    SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& cloud, const SignRepairOptions& options = {});
+    /// @param labels  visibility labels in the same frame (the sign guide's), or null
+    SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& cloud, const SignRepairOptions& options = {},
+               const VisibilityLabels* labels = nullptr);
 
     /// values(i) = field at points.row(i), corrected in place (negated where flipped).
     void apply(const Eigen::Ref<const PointsF>& points, Eigen::Ref<Eigen::VectorXf> values) const;

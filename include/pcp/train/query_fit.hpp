@@ -6,6 +6,7 @@
 
 #include "pcp/cloud/prepared_cloud.hpp"
 #include "pcp/cloud/sampling.hpp"
+#include "pcp/cloud/visibility.hpp"
 #include "pcp/core/types.hpp"
 #include "pcp/train/prior.hpp"
 #include "pcp/train/schedule.hpp"
@@ -49,6 +50,21 @@ enum class QueryAblation { None, NoShift, Direct, FreeCode, PointNetCode, NoPrio
 QueryAblation parse_query_ablation(const std::string& name);
 std::string to_string(QueryAblation ablation);
 
+/// The sign guide (not in the paper; pcp/cloud/visibility.hpp): during the first until x steps,
+/// each step adds round(fraction x queries_per_step) queries drawn in the cells that visibility
+/// labels inside or outside, with the loss weight x mean relu(-label x F_g)
+/// (nn::Stage2Workspace::guided). The pulling loss cannot tell a field from its negative; this tells
+/// the fit which side is which wherever the cloud alone can tell. Nothing is guided when no cell is
+/// labelled. Measured and left off (docs/BENCHMARKS.md, "Visibility labels"): over three seeds it
+/// did not make the fit's outcome more stable, and it cost abc_00016513 about 15 % of L2-CD.
+struct SignGuideOptions {
+    bool enabled = false;        ///< off by default (measured, not adopted)
+    double fraction = 0.1;       ///< guided queries per step, x queries_per_step (0, 1]
+    double weight = 1.0;         ///< of the hinge against the pulling loss (> 0)
+    double until = 0.2;          ///< guide the first until x steps only (0, 1]
+    VisibilityOptions visibility;  ///< the labels, when the fitter is not given them
+};
+
 struct QueryFitOptions {
     SamplingOptions sampling;        ///< global queries around the cloud (paper: 40 per point)
     int width = 512;                 ///< Q's width (paper: 512)
@@ -59,6 +75,7 @@ struct QueryFitOptions {
     TrainingSchedule schedule = TrainingSchedule::every(100, 2000);
     bool zero_shift_init = true;     ///< start with dq = 0 (q_l' = q_g); modes with a shift only
     QueryAblation ablation = QueryAblation::None;  ///< the paper's ablations (see above)
+    SignGuideOptions sign_guide;     ///< not in the paper (see above)
 };
 
 /// The resumable stage-2 fitter (F frozen, or trained with Q in the no-prior / tune-prior
@@ -67,7 +84,10 @@ struct QueryFitOptions {
 class QueryNetFitter {
 public:
     /// @param[in] cloud  the input, prepared (checked, in the unit box, indexed); must outlive the fitter.
-    QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& prior, const QueryFitOptions& options);
+    /// @param[in] labels  visibility labels of the cloud for the sign guide (copied), or null: then
+    ///                    computed here with options.sign_guide.visibility when the guide is on.
+    QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& prior, const QueryFitOptions& options,
+                   const VisibilityLabels* labels = nullptr);
     ~QueryNetFitter();
 
     /// Steps until done or cancelled (false); first continues from the checkpoint when
@@ -84,6 +104,8 @@ public:
     void sdf(const Eigen::Ref<const PointsF>& unit_points, Eigen::Ref<Eigen::VectorXf> values) const;
 
     const PreparedCloud& cloud() const;
+    /// Guided queries per step (0: the guide is off or labelled nothing).
+    int guided_per_step() const;
 
 private:
     struct Impl;
