@@ -189,8 +189,10 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& t
         if (c >= 0) current[n] = static_cast<std::int8_t>(groups[dsu.find(c)].sign != original_sign[c] ? -sign[n] : sign[n]);
     }
 
-    // 3c'. Visibility labels: a region (after the flips) whose labelled samples mostly say the
-    // other side is flipped, unless it touches the box.
+    // 3c'. Visibility labels: a negative region (after the flips) whose labelled samples mostly
+    // say outside is flipped, unless it touches the box. Positive regions labelled inside are
+    // left to the cavity fill, which also fills their layer near the data (a coarse flip would
+    // leave that layer as an inner sheet).
     if (labels && options.min_label_votes > 0 && !labels->label.empty()) {
         std::unordered_map<int, std::pair<std::int64_t, std::int64_t>> votes;  // root -> (agree, disagree)
         for (std::int64_t n = 0; n < count; ++n) {
@@ -206,7 +208,8 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& t
         }
         std::vector<char> flip_root(groups.size(), 0);
         for (const auto& [root, v] : votes) {
-            if (groups[root].touches_box || v.second < options.min_label_votes || v.second <= v.first) continue;
+            if (groups[root].touches_box || groups[root].sign > 0 || v.second < options.min_label_votes || v.second <= v.first)
+                continue;
             flip_root[static_cast<std::size_t>(root)] = 1;
             ++stats_.label_flipped;
         }
