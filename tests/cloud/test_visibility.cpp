@@ -19,6 +19,20 @@ pcp::Aabb grown_box(const pcp::PointsF& unit, double margin) {
     return box;
 }
 
+/// The labelled cells whose centre, mapped back to the cloud's frame, satisfies pred(p, label).
+int count_cells(const pcp::VisibilityLabels& l, const pcp::PreparedCloud& cloud,
+                const std::function<bool(const Eigen::Vector3d&, int)>& pred) {
+    int n = 0;
+    for (int k = 0; k < l.dims.z(); ++k)
+        for (int j = 0; j < l.dims.y(); ++j)
+            for (int i = 0; i < l.dims.x(); ++i) {
+                pcp::Points c(1, 3);
+                c.row(0) = l.center(i, j, k).transpose();
+                if (pred(cloud.normalization().from_unit(c).row(0).transpose(), l.label[l.index(i, j, k)])) ++n;
+            }
+    return n;
+}
+
 struct Agreement {
     int inside = 0, outside = 0, wrong = 0;
 };
@@ -27,18 +41,9 @@ struct Agreement {
 Agreement check_labels(const pcp::VisibilityLabels& l, const pcp::PreparedCloud& cloud,
                        const std::function<double(const Eigen::Vector3d&)>& sdf) {
     Agreement a;
-    for (int k = 0; k < l.dims.z(); ++k)
-        for (int j = 0; j < l.dims.y(); ++j)
-            for (int i = 0; i < l.dims.x(); ++i) {
-                const int label = l.label[l.index(i, j, k)];
-                if (label == 0) continue;
-                pcp::Points c(1, 3);
-                c.row(0) = l.center(i, j, k).transpose();
-                const double d = sdf(cloud.normalization().from_unit(c).row(0).transpose());
-                if (label < 0) ++a.inside;
-                if (label > 0) ++a.outside;
-                if ((label < 0) != (d < 0)) ++a.wrong;
-            }
+    a.inside = count_cells(l, cloud, [](const Eigen::Vector3d&, int label) { return label < 0; });
+    a.outside = count_cells(l, cloud, [](const Eigen::Vector3d&, int label) { return label > 0; });
+    a.wrong = count_cells(l, cloud, [&](const Eigen::Vector3d& p, int label) { return label != 0 && (label < 0) != (sdf(p) < 0); });
     return a;
 }
 
@@ -72,16 +77,9 @@ TEST_CASE("visibility: the default shape's through-hole is outside, its block in
     CHECK(check_labels(d, cloud, [](const Eigen::Vector3d& p) { return pcp::default_shape_sdf(p); }).wrong == 0);
     CHECK(d.stats.outside < l.stats.outside);
     // Cells on the hole's axis (x = -0.2, y = 0, inside the block's z range) are outside.
-    int hole_outside = 0;
-    for (int k = 0; k < l.dims.z(); ++k)
-        for (int j = 0; j < l.dims.y(); ++j)
-            for (int i = 0; i < l.dims.x(); ++i) {
-                pcp::Points c(1, 3);
-                c.row(0) = l.center(i, j, k).transpose();
-                const Eigen::Vector3d p = cloud.normalization().from_unit(c).row(0).transpose();
-                if (std::hypot(p.x() + 0.2, p.y()) < 0.06 && std::abs(p.z()) < 0.15 && l.label[l.index(i, j, k)] > 0)
-                    ++hole_outside;
-            }
+    const int hole_outside = count_cells(l, cloud, [](const Eigen::Vector3d& p, int label) {
+        return std::hypot(p.x() + 0.2, p.y()) < 0.06 && std::abs(p.z()) < 0.15 && label > 0;
+    });
     CHECK(hole_outside >= 3);
 }
 
@@ -96,15 +94,8 @@ TEST_CASE("visibility: from inside an open shell the opening is seen, so nothing
     kept.conservativeResize(n, 3);
     const pcp::PreparedCloud open(kept, "open sphere", 2);
     const pcp::VisibilityLabels l = pcp::label_by_visibility(open.tree(), grown_box(open.unit(), 0.05));
-    int inside_near_centre = 0;
-    for (int k = 0; k < l.dims.z(); ++k)
-        for (int j = 0; j < l.dims.y(); ++j)
-            for (int i = 0; i < l.dims.x(); ++i) {
-                pcp::Points c(1, 3);
-                c.row(0) = l.center(i, j, k).transpose();
-                const Eigen::Vector3d p = open.normalization().from_unit(c).row(0).transpose();
-                if (p.norm() < 0.1 && l.label[l.index(i, j, k)] < 0) ++inside_near_centre;
-            }
+    const int inside_near_centre =
+        count_cells(l, open, [](const Eigen::Vector3d& p, int label) { return p.norm() < 0.1 && label < 0; });
     CHECK(inside_near_centre == 0);
 }
 

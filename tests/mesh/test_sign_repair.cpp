@@ -46,6 +46,12 @@ float value_at(const pcp::SdfBatchFn& field, const pcp::SignRepair& repair, cons
     return v(0);
 }
 
+pcp::SignRepairOptions with_votes(int votes) {
+    pcp::SignRepairOptions o;
+    o.min_label_votes = votes;
+    return o;
+}
+
 double max_distance_to_sphere(const pcp::Mesh& mesh, double radius) {
     return (mesh.vertices.rowwise().norm().array() - radius).abs().maxCoeff();
 }
@@ -220,16 +226,12 @@ TEST_CASE("sign repair: visibility labels open a part that the field closed with
     vo.outside_fraction = 0.2;  // the middle sees out through about a third of the directions
     const pcp::VisibilityLabels labels = pcp::label_by_visibility(tree, kBox, vo);
     REQUIRE(labels.stats.outside > 0);
-    pcp::SignRepairOptions votes;
-    votes.min_label_votes = 4;
-    const pcp::SignRepair repair(field, kBox, tree, votes, &labels);
+    const pcp::SignRepair repair(field, kBox, tree, with_votes(4), &labels);
     CHECK(repair.stats().label_flipped == 1);
     CHECK(value_at(field, repair, {0, 0, 0}) > 0);
     CHECK(value_at(field, repair, {0, 0.3f, 0.1f}) > 0);
     // Off (min_label_votes = 0): the labels are ignored.
-    pcp::SignRepairOptions off;
-    off.min_label_votes = 0;
-    const pcp::SignRepair ignored(field, kBox, tree, off, &labels);
+    const pcp::SignRepair ignored(field, kBox, tree, with_votes(0), &labels);
     CHECK(value_at(field, ignored, {0, 0, 0}) < 0);
 }
 
@@ -241,9 +243,7 @@ TEST_CASE("sign repair: the label vote leaves a positive inside to the cavity fi
     const pcp::KdTree tree(points);
     const pcp::VisibilityLabels labels = pcp::label_by_visibility(tree, kBox);
     REQUIRE(labels.stats.inside > 0);
-    pcp::SignRepairOptions votes;
-    votes.min_label_votes = 4;
-    const pcp::SignRepair repair(field, kBox, tree, votes, &labels);
+    const pcp::SignRepair repair(field, kBox, tree, with_votes(4), &labels);
     CHECK(repair.stats().label_flipped == 0);
     CHECK(value_at(field, repair, {0, 0, 0}) > 0);
 }
