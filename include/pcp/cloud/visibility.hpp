@@ -1,5 +1,6 @@
-// Inside / outside from the cloud alone, by visibility (not in the paper): the labels of the
-// stage-2 sign guide.
+// Inside / outside from the cloud alone, by visibility (not in the paper): the labels of the sign
+// repair's label vote (pcp/mesh/sign_repair.hpp, on by default) and of the stage-2 sign guide
+// (pcp/train/query_fit.hpp, off by default); measured in docs/BENCHMARKS.md, "Visibility labels".
 //
 // The pulling loss (METHOD.md §3) is blind to the sign of the field: q - F g/|g| is the same for F
 // and -F, so a fit may settle with the inside of a shape positive under a thin negative shell, or
@@ -22,8 +23,9 @@
 //     and the guide says nothing there.
 //
 // Wrong labels are possible where no ray can see a true outside (an enclosed cavity, which no
-// scanner sees either) and where the data has a gap wider than the dilation; the guide therefore
-// only asks for the sign (a hinge at zero), never for a value.
+// scanner sees either; thin walls closing small pockets: abc_00010098) and where the data has a
+// gap wider than the dilation; their users therefore only act on the sign (the guide's hinge at
+// zero) or on a majority of a region's labels (the vote).
 #pragma once
 
 #include "pcp/cloud/kdtree.hpp"

@@ -18,6 +18,9 @@
 //     merges with its neighbours), smallest first, never a component that touches the grid's box.
 //     A hole in the data that the field closes by itself is left alone: there the component's
 //     boundary is mostly near samples.
+//  3'. With visibility labels (pcp/cloud/visibility.hpp): a negative region away from the data
+//     whose labelled samples mostly say outside is flipped too (the label vote), unless it
+//     touches the box: a membrane that closes an open part, a plug in a through-hole.
 //  4. apply() negates a value of the field wherever the coarse cell around its
 //     point has flipped corners of the value's own sign; |F| is unchanged everywhere.
 #pragma once
