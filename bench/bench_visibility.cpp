@@ -53,9 +53,7 @@ int main(int argc, char** argv) {
             const pcp::Points unit = cloud.normalization().to_unit_double(samples.points);
             std::int64_t agree[2] = {0, 0}, total[2] = {0, 0};
             for (Eigen::Index i = 0; i < unit.rows(); ++i) {
-                const Eigen::Vector3d u = (unit.row(i).transpose() - labels.origin) / labels.cell;
-                if ((u.array() < 0).any() || u.x() >= labels.dims.x() || u.y() >= labels.dims.y() || u.z() >= labels.dims.z()) continue;
-                const int l = labels.label[labels.index(int(u.x()), int(u.y()), int(u.z()))];
+                const int l = labels.label_at(unit.row(i).transpose());
                 if (l == 0 || sdf(i) == 0) continue;
                 const int k = l < 0 ? 0 : 1;
                 ++total[k];

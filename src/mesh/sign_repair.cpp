@@ -197,10 +197,7 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& t
         std::unordered_map<int, std::pair<std::int64_t, std::int64_t>> votes;  // root -> (agree, disagree)
         for (std::int64_t n = 0; n < count; ++n) {
             if (near[n]) continue;
-            const Eigen::Vector3d u = (nodes.row(n).transpose().cast<double>() - labels->origin) / labels->cell;
-            if ((u.array() < 0.0).any() || u.x() >= labels->dims.x() || u.y() >= labels->dims.y() || u.z() >= labels->dims.z())
-                continue;
-            const int l = labels->label[labels->index(int(u.x()), int(u.y()), int(u.z()))];
+            const int l = labels->label_at(nodes.row(n).transpose().cast<double>());
             if (l == 0) continue;
             auto& v = votes[dsu.find(comp[n])];
             if ((current[n] > 0) == (l > 0)) ++v.first;

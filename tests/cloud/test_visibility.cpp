@@ -116,9 +116,7 @@ TEST_CASE("visibility: labels are deterministic, samples lie in cells of their l
     REQUIRE(pts.rows() == 200);
     CHECK((vals.array() < 0).count() == 100);
     for (Eigen::Index i = 0; i < pts.rows(); ++i) {
-        const Eigen::Vector3d u = (pts.row(i).transpose().cast<double>() - a.origin) / a.cell;
-        const int label = a.label[a.index(int(u.x()), int(u.y()), int(u.z()))];
-        REQUIRE(label == (vals(i) < 0 ? -1 : 1));
+        REQUIRE(a.label_at(pts.row(i).transpose().cast<double>()) == (vals(i) < 0 ? -1 : 1));
     }
 }
 

@@ -75,6 +75,12 @@ struct VisibilityLabels {
     Eigen::Vector3d center(int i, int j, int k) const {
         return origin + cell * (Eigen::Vector3d(i, j, k).array() + 0.5).matrix();
     }
+    /// The label of the cell that holds p (same frame); 0 outside the grid.
+    int label_at(const Eigen::Vector3d& p) const {
+        const Eigen::Vector3d u = (p - origin) / cell;
+        if ((u.array() < 0.0).any() || u.x() >= dims.x() || u.y() >= dims.y() || u.z() >= dims.z()) return 0;
+        return label[index(int(u.x()), int(u.y()), int(u.z()))];
+    }
 };
 
 /// Labels the cells of `box` (unit-box coordinates, the cloud's box plus a margin) by visibility
