@@ -24,6 +24,7 @@
 
 #include <omp.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 namespace pcp::cli {
 
@@ -112,12 +113,42 @@ int run_main(const char* program, const std::function<int()>& body) {
     }
 }
 
+namespace {
+std::atomic<bool> g_progress_line_open{false};  ///< an in-place progress line is on the terminal
+}  // namespace
+
+void end_progress_line() {
+    if (g_progress_line_open.exchange(false)) std::cerr << std::endl;
+}
+
 void Log::info(const std::string& line) const {
-    if (!flags || !flags->quiet) std::cerr << line << std::endl;
+    if (flags && flags->quiet) return;
+    end_progress_line();
+    std::cerr << line << std::endl;
 }
 
 void Log::detail(const std::string& line) const {
-    if (flags && flags->verbose) std::cerr << line << std::endl;
+    if (!flags || !flags->verbose) return;
+    end_progress_line();
+    std::cerr << line << std::endl;
+}
+
+double StageMemory::of(const std::string& stage) const {
+    for (const auto& [name, mib] : peak_mib)
+        if (name == stage) return mib;
+    return -1;
+}
+
+void print_stage_table(const Log& log, const std::vector<std::tuple<std::string, double, double>>& rows) {
+    std::ostringstream out;
+    out << "| stage | seconds | peak MiB |\n|---|---|---|";
+    for (const auto& [stage, seconds, mib] : rows) {
+        char buf[160];
+        if (mib >= 0) std::snprintf(buf, sizeof buf, "\n| %s | %.1f | %.0f |", stage.c_str(), seconds, mib);
+        else std::snprintf(buf, sizeof buf, "\n| %s | %.1f | - |", stage.c_str(), seconds);
+        out << buf;
+    }
+    log.info(out.str());
 }
 
 void print_parameter_table(const Log& log, const std::vector<std::pair<std::string, std::string>>& rows) {
@@ -142,32 +173,64 @@ std::string format_duration(double seconds) {
     return buf;
 }
 
-ProgressCallback make_progress_printer(const Log& log, std::int64_t every) {
+ProgressCallback make_progress_printer(const Log& log, std::int64_t every, std::shared_ptr<StageMemory> memory) {
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     struct State {
         std::string stage;
         std::int64_t last_printed = -1;
+        std::chrono::steady_clock::time_point last_drawn{};
     };
     auto state = std::make_shared<State>();
-    return [log, every, state](const Progress& p) {
+    const bool quiet = log.flags && log.flags->quiet;
+    const bool terminal = !quiet && ::isatty(::fileno(stderr)) != 0;
+    return [log, every, state, memory, quiet, terminal](const Progress& p) {
         if (p.stage != state->stage) {
+            end_progress_line();
             state->stage = p.stage;
             state->last_printed = -1;
+            if (memory) memory->peak_mib.emplace_back(p.stage, peak_rss_mib());
         }
+        if (memory && !memory->peak_mib.empty()) memory->peak_mib.back().second = peak_rss_mib();
         const bool last = p.total > 0 && p.step >= p.total;
-        if (p.step == 0 || last || p.step - state->last_printed >= every) {
-            state->last_printed = p.step;
-            const double rate = p.elapsed_s > 0 ? static_cast<double>(p.step - p.step_offset) / p.elapsed_s : 0.0;
-            std::ostringstream line;
-            line << p.stage << " " << p.step;
-            if (p.total > 0) line << "/" << p.total;
-            char buf[96];
-            std::snprintf(buf, sizeof buf, " | loss %.6g | %.1f it/s", p.loss, rate);
+        const auto now = std::chrono::steady_clock::now();
+        const bool due = terminal ? (p.step == 0 || last || now - state->last_drawn >= std::chrono::milliseconds(100))
+                                  : (p.step == 0 || last || p.step - state->last_printed >= every);
+        if (quiet || !due) return !g_interrupted.load();
+        state->last_printed = p.step;
+        state->last_drawn = now;
+        const double rate = p.elapsed_s > 0 ? static_cast<double>(p.step - p.step_offset) / p.elapsed_s : 0.0;
+        std::ostringstream line;
+        char buf[160];
+        line << p.stage;
+        if (p.total > 0) {
+            const double fraction = std::clamp(static_cast<double>(p.step) / static_cast<double>(p.total), 0.0, 1.0);
+            std::snprintf(buf, sizeof buf, " %3d%%", static_cast<int>(100 * fraction));
             line << buf;
-            if (p.total > 0 && rate > 0)
-                line << " | ETA " << format_duration(static_cast<double>(p.total - p.step) / rate);
-            log.info(line.str());
+            if (terminal) {
+                constexpr int kBar = 20;
+                const int filled = static_cast<int>(fraction * kBar + 0.5);
+                line << " [" << std::string(static_cast<std::size_t>(filled), '#') << std::string(static_cast<std::size_t>(kBar - filled), ' ') << "]";
+            }
+            line << " " << p.step << "/" << p.total;
+        } else {
+            line << " " << p.step;
+        }
+        if (p.step > p.step_offset && rate > 0) {
+            std::snprintf(buf, sizeof buf, " | %.1f it/s", rate);
+            line << buf;
+            if (p.total > 0) line << (last ? " | done in " + format_duration(p.elapsed_s) : " | ETA " + format_duration(static_cast<double>(p.total - p.step) / rate));
+        }
+        if (p.has_loss && p.step > 0) {
+            std::snprintf(buf, sizeof buf, " | loss %.6g", p.loss);
+            line << buf;
+        }
+        if (terminal) {
+            std::cerr << "\r\033[K" << line.str() << std::flush;
+            g_progress_line_open = true;
+            if (last) end_progress_line();
+        } else {
+            std::cerr << line.str() << std::endl;
         }
         return !g_interrupted.load();
     };

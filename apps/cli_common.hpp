@@ -14,7 +14,9 @@
 #include <cstdint>
 #include <functional>
 #include <stdexcept>
+#include <memory>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -68,9 +70,25 @@ struct Log {
 /// Prints a "| Parameter | Value |" table to stderr (not with --quiet).
 void print_parameter_table(const Log& log, const std::vector<std::pair<std::string, std::string>>& rows);
 
-/// A ProgressCallback that prints "stage step/total | loss | it/s | ETA" every `every` steps and
-/// returns false once SIGINT or SIGTERM was received (installing the handlers on construction).
-ProgressCallback make_progress_printer(const Log& log, std::int64_t every);
+/// Per stage, the peak resident memory (MiB) seen at its last progress report.
+struct StageMemory {
+    std::vector<std::pair<std::string, double>> peak_mib;  ///< in the order the stages began
+    double of(const std::string& stage) const;             ///< -1 for a stage never reported
+};
+
+/// A ProgressCallback that shows "stage percent [bar] step/total | it/s | ETA [| loss]" and returns
+/// false once SIGINT or SIGTERM was received (installing the handlers on construction). On a
+/// terminal (stderr is a tty) the line is redrawn in place at most 10 times a second and ends when
+/// its stage does; otherwise one plain line every `every` steps and at the end of each stage. The
+/// loss is shown only for stages that have one. With `memory`, records each stage's peak memory.
+ProgressCallback make_progress_printer(const Log& log, std::int64_t every, std::shared_ptr<StageMemory> memory = nullptr);
+
+/// Ends an open in-place progress line (a newline), so that the next message starts a line.
+void end_progress_line();
+
+/// Prints "| stage | seconds | peak MiB |" rows to stderr (not with --quiet); a negative peak
+/// prints "-".
+void print_stage_table(const Log& log, const std::vector<std::tuple<std::string, double, double>>& rows);
 
 /// True once SIGINT/SIGTERM arrived after make_progress_printer installed its handlers.
 bool interrupted();

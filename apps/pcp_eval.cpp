@@ -263,7 +263,7 @@ int main(int argc, char** argv) {
     return pcp::cli::run_main("pcp_eval", [&] {
         const pcp::EvalOptions defaults;
         cxxopts::Options options("pcp_eval", "Compare a reconstructed mesh PRED with ground truth GT (mesh, or points with normals).");
-        options.positional_help("PRED GT");
+        options.positional_help("PRED GT  (PRED: a mesh; with --normals a point cloud with normals)");
         options.add_options()
             ("pred", "Reconstructed mesh (.ply .obj .off)", cxxopts::value<std::string>())
             ("gt", "Ground truth: a mesh, or points with normals", cxxopts::value<std::string>())
@@ -285,6 +285,8 @@ int main(int argc, char** argv) {
              "(median nearest-neighbour distance of the input)", cxxopts::value<double>()->default_value(join_thresholds({pcp::DiagnoseOptions{}.support_k})))
             ("near-k", "With --diagnose: GT surface farther than this many spacings from PRED is missing",
              cxxopts::value<double>()->default_value(join_thresholds({pcp::DiagnoseOptions{}.near_k})))
+            ("normals", "PRED is a point cloud with oriented normals (nx ny nz; e.g. pcp_reconstruct --normals): report how "
+             "many point to the outside of the GT mesh and their angles to the nearest GT face's normal")
             ("json", "Print JSON instead of a table")
             ("tsv", "Print one tab-separated line per metric: name, value, floor (\"-\" without one)");
         options.parse_positional({"pred", "gt"});
@@ -319,6 +321,40 @@ int main(int argc, char** argv) {
             throw pcp::cli::UsageError("--diagnose needs a GT mesh and excludes --gt-points and --sdf-samples");
         if (diagnose && !(args["support-k"].as<double>() > 0 && args["near-k"].as<double>() > 0))
             throw pcp::cli::UsageError("--support-k and --near-k must be > 0");
+        if (args.count("normals")) {
+            if (diagnose || args.count("gt-points") || !args["sdf-samples"].as<std::string>().empty())
+                throw pcp::cli::UsageError("--normals excludes --diagnose, --gt-points and --sdf-samples");
+            const pcp::PointCloud oriented = pcp::cli::load_checked_cloud(pred_path, 1);
+            for (const char* name : {"nx", "ny", "nz"})
+                PCP_CHECK(oriented.properties.count(name), pred_path << ": --normals needs points with normals (properties nx, ny, nz)");
+            pcp::Points normals(oriented.points.rows(), 3);
+            normals << oriented.properties.at("nx"), oriented.properties.at("ny"), oriented.properties.at("nz");
+            const pcp::Mesh gt_mesh = pcp::read_mesh(gt_path);
+            PCP_CHECK(gt_mesh.faces.rows() > 0, gt_path << ": --normals needs a ground-truth mesh with faces");
+            pcp::NormalOrientation n;
+            try {
+                n = pcp::normal_orientation(oriented.points, normals, gt_mesh);
+            } catch (const pcp::Error& e) {
+                PCP_FAIL(pred_path << ": " << e.what());
+            }
+            const std::vector<std::pair<std::string, double>> fields = {
+                {"points", static_cast<double>(n.points)}, {"correct_side", n.correct_side}, {"mean_angle_deg", n.mean_angle_deg},
+                {"median_angle_deg", n.median_angle_deg}, {"mean_unoriented_deg", n.mean_unoriented_deg}};
+            std::cout.precision(9);
+            if (args.count("json")) {
+                std::cout << "{\"pred\": \"" << pred_path << "\", \"gt\": \"" << gt_path << "\"";
+                for (const auto& [key, value] : fields) std::cout << ", \"" << key << "\": " << value;
+                std::cout << "}" << std::endl;
+            } else if (args.count("tsv")) {
+                for (const auto& [key, value] : fields) std::cout << key << "\t" << value << "\n";
+                std::cout << std::flush;
+            } else {
+                std::cout << "pcp_eval --normals: " << pred_path << " vs " << gt_path << "\n| metric | value |\n|---|---|\n";
+                for (const auto& [key, value] : fields) std::cout << "| " << key << " | " << value << " |\n";
+                std::cout << std::flush;
+            }
+            return 0;
+        }
         const pcp::Mesh pred = pcp::read_mesh(pred_path);
         PCP_CHECK(pred.faces.rows() > 0, pred_path << ": the predicted mesh has no faces");
         const GroundTruth gt = read_ground_truth(gt_path, args.count("gt-points") > 0);

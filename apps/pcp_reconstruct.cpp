@@ -46,6 +46,11 @@ int main(int argc, char** argv) {
         options.add_options()
             ("input", "Point cloud file", cxxopts::value<std::string>())
             ("o,output", "Output mesh (.ply .obj .off)", cxxopts::value<std::string>()->default_value("pcp_mesh.ply"))
+            ("normals", "Also write the input points with their oriented normals (nx ny nz, outward, read off the "
+                        "fitted field; .ply .xyz .npy)", cxxopts::value<std::string>()->default_value(""))
+            ("normals-from", "mesh | pca | field: the final mesh's normal at the nearest point; the PCA normal "
+                             "turned to the mesh's side; or the PCA normal oriented by the fitted field's own votes",
+             cxxopts::value<std::string>()->default_value(pcp::to_string(d.normal_source)))
             ("prior", "A prior trained by pcp_train (default: learn a self-prior on the input)", cxxopts::value<std::string>()->default_value(""))
             ("preset", "paper | default | fast (explicit options below override it)", cxxopts::value<std::string>()->default_value("default"))
             ("ascii", "Write an ascii .ply")
@@ -262,6 +267,20 @@ int main(int argc, char** argv) {
         if (!builtin) inputs.push_back(input);
         if (!prior_path.empty()) inputs.push_back(prior_path);
         pcp::check_output_path(output, inputs);
+        const std::string normals_path = args["normals"].as<std::string>();
+        try {
+            o.normal_source = pcp::parse_normal_source(args["normals-from"].as<std::string>());
+        } catch (const pcp::Error& e) {
+            throw pcp::cli::UsageError(std::string("--normals-from: ") + e.what());
+        }
+        if (!normals_path.empty()) {
+            const std::string next = pcp::file_extension(normals_path);
+            PCP_CHECK(next == ".ply" || next == ".xyz" || next == ".npy",
+                      normals_path << ": unknown point cloud extension '" << next << "' for --normals (use .ply, .xyz or .npy)");
+            pcp::check_output_path(normals_path, inputs);
+            PCP_CHECK(std::filesystem::weakly_canonical(normals_path) != std::filesystem::weakly_canonical(output),
+                      normals_path << ": --normals names the output mesh; choose another name");
+        }
 
         const auto t_start = std::chrono::steady_clock::now();
         pcp::PointCloud cloud;
@@ -295,15 +314,33 @@ int main(int argc, char** argv) {
                                               {"sign repair", o.sign_repair.enabled ? "on (coarse grid " + std::to_string(std::min(o.sign_repair.resolution, o.resolution)) + ")" : "off"},
                                               {"precision", precision + (o.fp32_grid && precision.rfind("bf16", 0) == 0 ? ", SDF grid fp32" : "")},
                                               {"seed", std::to_string(common.seed)}});
-        o.progress = pcp::cli::make_progress_printer(log, o.fit.schedule.progress_every);
+        const auto stage_memory = std::make_shared<pcp::cli::StageMemory>();
+        o.progress = pcp::cli::make_progress_printer(log, o.fit.schedule.progress_every, stage_memory);
         o.fit.schedule.checkpoint_path = output + ".ckpt";
         o.fit.schedule.resume = args.count("resume") > 0;
         pcp::ReconstructReport report;
-        const pcp::Mesh mesh = pcp::reconstruct(cloud.points, prior_path.empty() ? nullptr : &prior, o, &report);
+        pcp::Points normals;
+        const pcp::Mesh mesh = pcp::reconstruct(cloud.points, prior_path.empty() ? nullptr : &prior, o, &report,
+                                                normals_path.empty() ? nullptr : &normals);
         if (report.cancelled) throw pcp::cli::Cancelled("interrupted; continue the query-network stage with --resume");
         pcp::MeshWriteOptions wo;
         wo.ascii = args.count("ascii") > 0;
         pcp::write_mesh(output, mesh, wo);
+        if (!normals_path.empty()) {
+            pcp::PointCloud oriented;
+            oriented.points = cloud.points;
+            oriented.properties["nx"] = normals.col(0);
+            oriented.properties["ny"] = normals.col(1);
+            oriented.properties["nz"] = normals.col(2);
+            pcp::write_point_cloud(normals_path, oriented, wo.ascii);
+            log.info("wrote " + normals_path + ": " + std::to_string(normals.rows()) + " oriented normals (" +
+                     (o.normal_source == pcp::NormalSource::Field
+                          ? std::to_string(report.normals.confident) + " oriented by the field's own vote, " +
+                                std::to_string(report.normals.weak_orientation) + " by their neighbours"
+                          : o.normal_source == pcp::NormalSource::Mesh ? std::string("the mesh's, at the nearest point")
+                                                                       : std::string("PCA, turned to the mesh's side")) +
+                     "; " + fmt(report.normals.seconds) + " s)");
+        }
         std::error_code ec;
         if (!o.keep_checkpoints) std::filesystem::remove(o.fit.schedule.checkpoint_path, ec);
         std::ostringstream s;
@@ -333,12 +370,23 @@ int main(int argc, char** argv) {
           << ", fine repair flipped " << report.fine_repair.flipped_components << " of " << report.fine_repair.components
           << " thin regions" << (report.fine_repair.skipped ? " (skipped: grid too large)" : "")
           << ", surface fit removed " << report.surface_fit.removed_components << " of " << report.surface_fit.components
-          << " components (no input points near them)" << (report.smoothed ? ", smoothed" : "") << "\n"
-          << "| read " << fmt(t_read) << " s | denoise " << fmt(report.seconds_denoise) << " s (" << report.denoise_passes
+          << " components (no input points near them)" << (report.smoothed ? ", smoothed" : "");
+        log.info(s.str());
+        const double total_s = pcp::cli::seconds_since(t_start);
+        pcp::cli::print_stage_table(
+            log, {{"read", t_read, -1},
+                  {"denoise (" + std::to_string(report.denoise_passes) + " passes)", report.seconds_denoise, -1},
+                  {prior_path.empty() ? "self-prior" : "prior (read)", report.seconds_prior, stage_memory->of("prior")},
+                  {"query net (" + std::to_string(report.fit_steps) + " steps)", report.seconds_fit, stage_memory->of("query-net")},
+                  {"SDF grid and sign repairs", report.seconds_grid, stage_memory->of("sdf-grid")},
+                  {"marching cubes, surface fit", report.seconds_mesh, -1},
+                  {"total (peak memory of the run)", total_s, pcp::cli::peak_rss_mib()}});
+        s.str("");
+        s << "| read " << fmt(t_read) << " s | denoise " << fmt(report.seconds_denoise) << " s (" << report.denoise_passes
           << " passes) | prior " << fmt(report.seconds_prior) << " s (loss " << fmt(report.prior_loss)
           << ") | query net " << fmt(report.seconds_fit) << " s (" << report.fit_steps << " steps, loss " << fmt(report.fit_loss)
           << ") | SDF grid " << fmt(report.seconds_grid) << " s (" << report.sdf_evaluations << " evaluations) | marching cubes "
-          << fmt(report.seconds_mesh) << " s | total " << fmt(pcp::cli::seconds_since(t_start)) << " s | precision " << precision << " | peak memory "
+          << fmt(report.seconds_mesh) << " s | total " << fmt(total_s) << " s | precision " << precision << " | peak memory "
           << fmt(pcp::cli::peak_rss_mib()) << " MiB";
         log.info(s.str());
         return 0;

@@ -9,6 +9,7 @@
 #include "pcp/core/progress.hpp"
 #include "pcp/core/types.hpp"
 #include "pcp/mesh/cavity_fill.hpp"
+#include "pcp/mesh/field_normals.hpp"
 #include "pcp/mesh/fine_repair.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 #include "pcp/mesh/sign_repair.hpp"
@@ -37,6 +38,11 @@ struct ReconstructOptions {
     FineRepairOptions fine_repair;   ///< the sign repair's rule on the fine grid, for thin membranes (not in the paper)
     SurfaceFitOptions surface_fit;   ///< support filter and fit of the mesh onto the data (not in the paper)
     SmoothOptions smoothing;         ///< bilateral smoothing of the final mesh, of noisy clouds by default (not in the paper)
+    /// The oriented normals of the input points, when asked for (not in the paper): read off the
+    /// final mesh at the nearest point (Mesh), the PCA normals oriented by it (PcaByMesh), or the
+    /// PCA normals oriented by the fitted field's own votes (Field, pcp/mesh/field_normals.hpp).
+    NormalSource normal_source = NormalSource::Mesh;
+    FieldNormalsOptions normals;     ///< PCA neighbours, and the votes of NormalSource::Field
     /// With fit.schedule.checkpoint_path set: write the finished query network there and keep the
     /// self-prior beside it (PATH.prior), so that a second call with fit.schedule.resume re-meshes
     /// (other resolution, sign repair or surface fit) without training again.
@@ -59,6 +65,7 @@ struct ReconstructReport {
     FineRepairStats fine_repair;     ///< what the fine sign repair flipped
     CavityFillStats cavity_fill;     ///< what the cavity fill negated
     WindingSignStats winding_sign;   ///< the oriented normals and the winding-number tree
+    FieldNormalsStats normals;       ///< the oriented normals of the input points (all 0: not asked for)
     std::int64_t winding_corrected = 0;  ///< field values whose sign the winding number changed
     VisibilityStats visibility;      ///< the visibility labels (all 0: not computed)
     int guided_per_step = 0;         ///< the fit's sign-guided queries per step (0: guide off)
@@ -74,8 +81,11 @@ struct ReconstructReport {
 
 /// Point cloud (input frame) -> mesh (input frame, outward faces). With `prior` null a self-prior
 /// is trained on the cloud first (options.self_prior), except in the no-prior ablation, which only
-/// takes the network sizes from options.self_prior.
+/// takes the network sizes from options.self_prior. With `normals` non-null it also receives the
+/// oriented unit normal of every input point (N x 3, input frame, same order, pointing outward),
+/// read off the fitted field (pcp/mesh/field_normals.hpp; of the denoised point when the cloud was
+/// denoised); empty when the run was cancelled.
 Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior, const ReconstructOptions& options,
-                 ReconstructReport* report = nullptr);
+                 ReconstructReport* report = nullptr, Points* normals = nullptr);
 
 }  // namespace pcp

@@ -277,4 +277,35 @@ Eigen::VectorXd point_to_mesh_distance(const Mesh& mesh, const Eigen::Ref<const 
     return detail::TriangleDistance(mesh).distances(points);
 }
 
+NormalOrientation normal_orientation(const Eigen::Ref<const Points>& points, const Eigen::Ref<const Points>& normals, const Mesh& gt) {
+    check_mesh(gt, "ground-truth");
+    PCP_CHECK(points.rows() == normals.rows(), "normal orientation: " << points.rows() << " points but " << normals.rows() << " normals");
+    PCP_CHECK(points.rows() > 0, "normal orientation: no points");
+    PCP_CHECK(points.allFinite() && normals.allFinite(), "normal orientation: a point or normal is not finite");
+    const Points reference = detail::TriangleDistance(gt).nearest_face_normals(points);
+    NormalOrientation r;
+    r.points = points.rows();
+    std::vector<double> angles(static_cast<std::size_t>(points.rows()));
+    Eigen::Index correct = 0;
+    double sum = 0, sum_unoriented = 0;
+    for (Eigen::Index i = 0; i < points.rows(); ++i) {
+        const double len = normals.row(i).norm();
+        PCP_CHECK(len > 0, "normal orientation: the normal of point " << i << " is zero");
+        const double c = std::clamp(normals.row(i).dot(reference.row(i)) / len, -1.0, 1.0);
+        const double angle = std::acos(c) * 180.0 / 3.14159265358979323846;
+        correct += c > 0;
+        angles[static_cast<std::size_t>(i)] = angle;
+        sum += angle;
+        sum_unoriented += std::min(angle, 180.0 - angle);
+    }
+    const auto n = static_cast<double>(points.rows());
+    r.correct_side = static_cast<double>(correct) / n;
+    r.mean_angle_deg = sum / n;
+    r.mean_unoriented_deg = sum_unoriented / n;
+    const auto mid = angles.begin() + static_cast<std::ptrdiff_t>(angles.size() / 2);
+    std::nth_element(angles.begin(), mid, angles.end());
+    r.median_angle_deg = *mid;
+    return r;
+}
+
 }  // namespace pcp

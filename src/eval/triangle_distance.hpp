@@ -14,6 +14,12 @@ public:
     ~TriangleDistance();
     /// Distance from each row of `points` (N x 3) to the nearest triangle. Thread-safe, parallel.
     Eigen::VectorXd distances(const Eigen::Ref<const Points>& points) const;
+    /// The unit normal of the triangle nearest to each row of `points` (N x 3), by its vertex order
+    /// (outward for counter-clockwise faces). Thread-safe, parallel.
+    Points nearest_face_normals(const Eigen::Ref<const Points>& points) const;
+    /// The index (into the mesh's faces) of the triangle nearest to each row of `points`, and in
+    /// `closest` (N x 3) the nearest point on it. Thread-safe, parallel.
+    Eigen::VectorXi nearest_faces(const Eigen::Ref<const Points>& points, Points& closest) const;
 
 private:
     class Impl;

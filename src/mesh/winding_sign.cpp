@@ -3,7 +3,6 @@
 
 #include "pcp/core/error.hpp"
 
-#include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <atomic>
@@ -11,7 +10,6 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
-#include <queue>
 #include <vector>
 
 namespace pcp {
@@ -29,73 +27,6 @@ struct Node {
     float radius = 0;
     std::int32_t begin = 0, end = 0, left = -1, right = -1;
 };
-
-/// PCA normals (unit, unoriented) of every tree point from its k nearest points (also returned),
-/// and the spread of those points along the normal (the standard deviation: noise, or curvature).
-PointsF pca_normals(const KdTree& tree, int k, NeighborIndices& idx, Eigen::VectorXf& thickness) {
-    const PointsF& pts = tree.points();
-    NeighborDistances dist;
-    tree.knn(pts, k, idx, dist);
-    PointsF normals(pts.rows(), 3);
-    thickness.resize(pts.rows());
-#pragma omp parallel for schedule(static)
-    for (Eigen::Index i = 0; i < pts.rows(); ++i) {
-        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-        for (int j = 0; j < k; ++j) mean += pts.row(idx(i, j)).transpose().cast<double>();
-        mean /= k;
-        Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-        for (int j = 0; j < k; ++j) {
-            const Eigen::Vector3d d = pts.row(idx(i, j)).transpose().cast<double>() - mean;
-            cov += d * d.transpose();
-        }
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-        normals.row(i) = eig.eigenvectors().col(0).cast<float>().transpose();  // smallest eigenvalue first
-        thickness(i) = static_cast<float>(std::sqrt(std::max(0.0, eig.eigenvalues()(0)) / k));
-    }
-    return normals;
-}
-
-/// Orientation signs (+1 keep, -1 negate) of the unoriented `normals` from the field's votes: a point
-/// whose vote is at least `confident` (1 for a true signed distance) keeps its own; the others take
-/// theirs from the neighbours, most parallel normal first (a best-first spread from every confident
-/// point, as in Hoppe et al.'s orientation but seeded by the field); a point no spread reaches keeps
-/// the sign of its own vote. Returns how many points took a neighbour's orientation.
-std::int64_t orient_by_votes(const PointsF& normals, const NeighborIndices& idx, const Eigen::VectorXd& votes,
-                             double confident, std::vector<std::int8_t>& sign) {
-    const Eigen::Index n = normals.rows();
-    sign.assign(static_cast<std::size_t>(n), 0);
-    struct Edge {
-        float weight;
-        std::int32_t to;
-        std::int8_t sign;
-        bool operator<(const Edge& o) const { return weight < o.weight; }
-    };
-    std::priority_queue<Edge> queue;
-    auto spread_from = [&](Eigen::Index i) {
-        for (Eigen::Index j = 1; j < idx.cols(); ++j) {
-            const std::int32_t k = idx(i, j);
-            if (sign[static_cast<std::size_t>(k)] != 0) continue;
-            const float dot = normals.row(i).dot(normals.row(k));
-            queue.push({std::abs(dot), k, static_cast<std::int8_t>(dot < 0 ? -sign[static_cast<std::size_t>(i)] : sign[static_cast<std::size_t>(i)])});
-        }
-    };
-    for (Eigen::Index i = 0; i < n; ++i)
-        if (std::abs(votes(i)) >= confident) sign[static_cast<std::size_t>(i)] = votes(i) < 0 ? -1 : 1;
-    for (Eigen::Index i = 0; i < n; ++i)
-        if (sign[static_cast<std::size_t>(i)] != 0) spread_from(i);
-    std::int64_t spread = 0;
-    while (!queue.empty()) {
-        const Edge e = queue.top();
-        queue.pop();
-        if (sign[static_cast<std::size_t>(e.to)] != 0) continue;
-        sign[static_cast<std::size_t>(e.to)] = e.sign;
-        ++spread;
-        spread_from(e.to);
-    }
-    for (Eigen::Index i = 0; i < n; ++i)
-        if (sign[static_cast<std::size_t>(i)] == 0) sign[static_cast<std::size_t>(i)] = votes(i) < 0 ? -1 : 1;
-    return spread;
-}
 
 float dipole_term(const Eigen::Vector3f& source, const Eigen::Vector3f& moment, const Eigen::Vector3f& q) {
     const Eigen::Vector3f d = source - q;
@@ -184,15 +115,11 @@ WindingSign::WindingSign(const SdfBatchFn& field, const KdTree& cloud, const Win
     : impl_(std::make_unique<Impl>()) {
     Impl& m = *impl_;
     m.options = options;
-    PCP_CHECK(options.normal_k >= 3 && options.normal_k <= 64, "winding sign: normal_k must be in 3..64");
-    PCP_CHECK(options.probe > 0 && std::isfinite(options.probe), "winding sign: probe must be > 0");
+    check_field_normals_options(options.normals, "winding sign");
     PCP_CHECK(options.near_k >= 0 && std::isfinite(options.near_k), "winding sign: near_k must be >= 0");
     PCP_CHECK(options.margin >= 0 && options.margin < 0.5, "winding sign: margin must be in [0, 0.5)");
-    PCP_CHECK(options.confident_vote >= 0 && std::isfinite(options.confident_vote), "winding sign: confident_vote must be >= 0");
     PCP_CHECK(options.opening >= 1 && std::isfinite(options.opening), "winding sign: opening must be >= 1");
     if (!options.enabled) return;
-    PCP_CHECK(cloud.size() > options.normal_k,
-              "winding sign: the cloud has " << cloud.size() << " points; normal_k = " << options.normal_k << " needs more");
     const auto t0 = std::chrono::steady_clock::now();
     m.cloud = &cloud;
     const PointsF& pts = cloud.points();
@@ -201,41 +128,9 @@ WindingSign::WindingSign(const SdfBatchFn& field, const KdTree& cloud, const Win
     m.stats.points = n;
     m.stats.tau = options.near_k * scale;
 
-    // 1. PCA normals, oriented by the field's growth along them at three probe steps; points with a
-    //    weak vote take the orientation of their neighbours.
-    NeighborIndices neighbours;
-    Eigen::VectorXf thickness;
-    m.normals = pca_normals(cloud, options.normal_k, neighbours, thickness);
-    constexpr int kProbes = 3;
-    // The first probe step: probe x scale, or beyond the local noise (thickness_probe standard
-    // deviations of the points along the normal) where that is more.
-    Eigen::VectorXf step(n);
-    for (Eigen::Index i = 0; i < n; ++i)
-        step(i) = std::max(static_cast<float>(options.probe * scale), static_cast<float>(options.noise_probe) * thickness(i));
-    PointsF probes((2 * kProbes + 1) * n, 3);
-    probes.bottomRows(n) = pts;
-    for (Eigen::Index i = 0; i < n; ++i)
-        for (int s = 0; s < kProbes; ++s) {
-            const float h = step(i) * static_cast<float>(1 << s);
-            probes.row((2 * s) * n + i) = pts.row(i) + h * m.normals.row(i);
-            probes.row((2 * s + 1) * n + i) = pts.row(i) - h * m.normals.row(i);
-        }
-    Eigen::VectorXf values(probes.rows());
-    field(probes, values);
-    PCP_CHECK(values.allFinite(), "winding sign: the field is not finite at a probe near the input points");
-    Eigen::VectorXd votes(n);  // 1 for a signed distance growing along the normal, -1 against it
-    for (Eigen::Index i = 0; i < n; ++i) {
-        double vote = 0, clean = 0;
-        for (int s = 0; s < kProbes; ++s) {
-            const double h = step(i) * double(1 << s), w = 1.0 / double(1 << s);
-            vote += w * (double(values((2 * s) * n + i)) - double(values((2 * s + 1) * n + i))) / h;
-            clean += w * 2.0;  // a signed distance grows by 2h over the probe pair
-        }
-        // A point the field's zero set does not pass near is no witness of its orientation.
-        const bool on_zero_set = std::abs(values(2 * kProbes * n + i)) <= std::max(options.zero_set * scale, double(step(i)));
-        votes(i) = on_zero_set ? vote / clean : 0.0;
-    }
-    for (Eigen::Index i = 0; i < n; ++i) m.stats.confident += std::abs(votes(i)) >= options.confident_vote;
+    // 1. PCA normals, oriented by the field's votes (field_normals.hpp).
+    FieldNormals oriented = orient_normals_by_field(field, cloud, options.normals);
+    m.stats.confident = oriented.stats.confident;
     if (double(m.stats.confident) < options.min_confident * double(n)) {
         // The field is flat or unsigned near most of the data (a very noisy cloud): it cannot
         // orient the points, and a winding number of badly oriented points would do harm.
@@ -243,12 +138,9 @@ WindingSign::WindingSign(const SdfBatchFn& field, const KdTree& cloud, const Win
         m.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         return;
     }
-    std::vector<std::int8_t> sign;
-    m.stats.weak_orientation = orient_by_votes(m.normals, neighbours, votes, options.confident_vote, sign);
-    for (Eigen::Index i = 0; i < n; ++i) {
-        if (sign[static_cast<std::size_t>(i)] < 0) m.normals.row(i) = -m.normals.row(i);
-        if (double(sign[static_cast<std::size_t>(i)]) * votes(i) < 0) ++m.stats.against_own_vote;
-    }
+    m.normals = std::move(oriented.normals);
+    m.stats.weak_orientation = oriented.stats.weak_orientation;
+    m.stats.against_own_vote = oriented.stats.against_own_vote;
 
     // 2. Areas and the Barnes-Hut tree.
     const int ka = static_cast<int>(std::min<Eigen::Index>(9, n));  // 8 other points + the point itself

@@ -90,10 +90,11 @@ const LocalPrior* obtain_prior(const LocalPrior* given, const PreparedCloud& clo
 }  // namespace
 
 Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior, const ReconstructOptions& options,
-                 ReconstructReport* report) {
+                 ReconstructReport* report, Points* normals) {
     ReconstructReport local;
     ReconstructReport& r = report ? *report : local;
     r = ReconstructReport{};
+    if (normals) normals->resize(0, 3);
     const Eigen::Index min_points = min_points_for(options.fit.sampling);
     // Optional denoising (include/pcp/cloud/denoise.hpp); everything below works on `cloud`, which
     // checks what it is given. The raw input is checked here only when it is denoised first.
@@ -169,6 +170,13 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
             if (((p - lo).abs() <= tol).any() || ((p - hi).abs() <= tol).any()) v(i) = std::max(v(i), outside);
         }
     };
+    // The oriented normals of the input points (include/pcp/mesh/field_normals.hpp): the unit
+    // box's uniform scale keeps directions, so they are the input frame's too.
+    if (normals && options.normal_source == NormalSource::Field) {
+        const FieldNormals oriented = orient_normals_by_field(fitted, cloud.tree(), options.normals);
+        r.normals = oriented.stats;
+        *normals = oriented.normals.cast<double>();
+    }
     // Away from the data the sign is the winding number's of the field-oriented input points
     // (include/pcp/mesh/winding_sign.hpp).
     const WindingSign winding(fitted, cloud.tree(), options.winding_sign);
@@ -217,6 +225,21 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     const Mesh unit_mesh = r.smoothed ? bilateral_smooth(fitted_mesh, options.smoothing.bilateral) : fitted_mesh;
     Mesh mesh = cloud.normalization().from_unit(unit_mesh);
     r.closed = is_closed_and_oriented(mesh);
+    if (normals && options.normal_source != NormalSource::Field) {
+        // Read off the final mesh at the point nearest to each input point (include/pcp/mesh/field_normals.hpp).
+        const auto t_normals = std::chrono::steady_clock::now();
+        *normals = mesh_normals_at(mesh, points);
+        if (options.normal_source == NormalSource::PcaByMesh) {
+            // The PCA direction of the (denoised) cloud, turned to the mesh's side.
+            const PointsF pca = pca_normals(cloud.tree(), options.normals.normal_k);
+            for (Eigen::Index i = 0; i < normals->rows(); ++i) {
+                const Eigen::RowVector3d d = pca.row(i).cast<double>();
+                normals->row(i) = d.dot(normals->row(i)) < 0 ? Eigen::RowVector3d(-d) : d;
+            }
+        }
+        r.normals.points = normals->rows();
+        r.normals.seconds = seconds_since(t_normals);
+    }
     r.seconds_mesh = seconds_since(t0);
     std::error_code ignored;
     if (!prior_ckpt.empty() && !options.keep_checkpoints) std::filesystem::remove(prior_ckpt, ignored);

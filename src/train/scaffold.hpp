@@ -78,6 +78,7 @@ bool run_step_loop(Trainer& trainer, const char* stage, std::int64_t total, cons
         p.step = trainer.steps_done();
         p.total = total;
         p.loss = trainer.recent_loss();
+        p.has_loss = true;
         p.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         p.step_offset = first;
         return s.progress(p);

@@ -484,3 +484,48 @@ TEST_CASE("cli: pcp_render draws meshes and clouds into one PNG, names bad input
     CHECK(run(render + "--views front,30:20 --size 32 -o '" + out2.string() + "'").exit_code == 0);
     CHECK(fs::exists(out2));
 }
+
+TEST_CASE("cli: --normals and --normals-from: bad paths and values are refused before any work", "[cli]") {
+    const fs::path dir = case_dir("normals_flags");
+    const pcp::PointCloud good = pcp::sample_sphere(200, 1.0, Eigen::Vector3d::Zero(), 3);
+    const fs::path input = dir / "in.ply";
+    pcp::write_point_cloud(input.string(), good);
+    const std::string base = bin("pcp_reconstruct") + " '" + input.string() + "' -o '" + (dir / "out.ply").string() + "'";
+    RunResult r = run(base + " --normals '" + (dir / "n.obj").string() + "'");
+    CHECK(r.exit_code == 1);
+    CHECK(r.err.find("n.obj") != std::string::npos);
+    r = run(base + " --normals '" + (dir / "out.ply").string() + "'");
+    CHECK(r.exit_code == 1);
+    CHECK(r.err.find("output mesh") != std::string::npos);
+    r = run(base + " --normals '" + input.string() + "'");
+    CHECK(r.exit_code == 1);
+    CHECK(r.err.find("is the input") != std::string::npos);
+    r = run(base + " --normals '" + (dir / "n.ply").string() + "' --normals-from gradient");
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.find("--normals-from") != std::string::npos);
+    CHECK(!fs::exists(dir / "out.ply"));
+    CHECK(!fs::exists(dir / "n.ply"));
+}
+
+TEST_CASE("cli: pcp_eval --normals scores oriented points against a GT mesh, points without normals exit 1 naming the file", "[cli]") {
+    const fs::path dir = case_dir("eval_normals");
+    pcp::write_mesh((dir / "gt.ply").string(), pcp::test::uv_sphere(1.0, 16, 32));
+    pcp::PointCloud oriented = pcp::sample_sphere(500, 1.0, Eigen::Vector3d::Zero(), 5);  // outward normals
+    pcp::write_point_cloud((dir / "n.ply").string(), oriented);
+    const fs::path out = dir / "out.tsv";
+    REQUIRE(std::system((bin("pcp_eval") + " --normals '" + (dir / "n.ply").string() + "' '" + (dir / "gt.ply").string() +
+                         "' --tsv > '" + out.string() + "'").c_str()) == 0);
+    std::ifstream in(out);
+    const std::string tsv((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    INFO(tsv);
+    CHECK(tsv.find("points\t500\n") != std::string::npos);
+    CHECK(tsv.find("correct_side\t1\n") != std::string::npos);
+    oriented.properties.clear();
+    pcp::write_point_cloud((dir / "bare.ply").string(), oriented);
+    const RunResult bare = run(bin("pcp_eval") + " --normals '" + (dir / "bare.ply").string() + "' '" + (dir / "gt.ply").string() + "'");
+    CHECK(bare.exit_code == 1);
+    CHECK(bare.err.find("bare.ply") != std::string::npos);
+    CHECK(bare.err.find("normals") != std::string::npos);
+    const RunResult both = run(bin("pcp_eval") + " --normals --diagnose '" + (dir / "n.ply").string() + "' '" + (dir / "gt.ply").string() + "'");
+    CHECK(both.exit_code == 2);
+}

@@ -163,7 +163,7 @@ TEST_CASE("winding sign: a plug across a torus's hole is opened (genus 1)", "[wi
     // the spread of orientation from the confident points, half its normals point into the tube and
     // the winding number in the hole is unclear, so the plug stays.
     pcp::WindingSignOptions own_votes_only = on();
-    own_votes_only.confident_vote = 0;
+    own_votes_only.normals.confident_vote = 0;
     const pcp::WindingSign unspread(batch(plugged), tree, own_votes_only);
     const pcp::SdfBatchFn partly = [&](const Eigen::Ref<const pcp::PointsF>& p, Eigen::Ref<Eigen::VectorXf> out) {
         batch(plugged)(p, out);
@@ -193,7 +193,7 @@ TEST_CASE("winding sign: disabled is the identity, bad options throw", "[winding
     CHECK(v(0) == 1.0f);
 
     pcp::WindingSignOptions bad = on();
-    bad.normal_k = 2;
+    bad.normals.normal_k = 2;
     CHECK_THROWS_AS(pcp::WindingSign(f, tree, bad), pcp::Error);
     bad = on();
     bad.margin = 0.5;

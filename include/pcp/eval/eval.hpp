@@ -108,6 +108,20 @@ SignAgreement sign_agreement(const Mesh& mesh, const Eigen::Ref<const Points>& p
 SdfConvention detect_sdf_convention(const Mesh& reference, const Eigen::Ref<const Points>& points,
                                     const Eigen::VectorXd& sdf, double* agreement = nullptr);
 
+/// How well oriented normals of points agree with a ground-truth mesh (outward, counter-clockwise
+/// faces): each point is compared with the normal of its nearest GT triangle.
+struct NormalOrientation {
+    Eigen::Index points = 0;
+    double correct_side = 0;        ///< fraction of points with n . n_gt > 0 (the normal points to the GT's outside)
+    double mean_angle_deg = 0;      ///< mean angle between n and n_gt, 0..180
+    double median_angle_deg = 0;
+    double mean_unoriented_deg = 0; ///< mean of min(angle, 180 - angle): the direction alone, whatever the orientation
+};
+
+/// Compares `normals` (N x 3, unit or not) of `points` (N x 3, the GT's frame) with `gt`. Throws
+/// pcp::Error on mismatched sizes, non-finite or zero normals, or a mesh without faces.
+NormalOrientation normal_orientation(const Eigen::Ref<const Points>& points, const Eigen::Ref<const Points>& normals, const Mesh& gt);
+
 /// Distance from each row of `points` (N x 3) to the nearest triangle of `mesh` (exact).
 Eigen::VectorXd point_to_mesh_distance(const Mesh& mesh, const Eigen::Ref<const Points>& points);
 

@@ -6,17 +6,11 @@
 // inner sheet), a plug of "inside" across a through-hole, or a bubble. Those are decided here by a
 // global, hole-tolerant vote instead of a local one:
 //
-//  1. Oriented normals. Each input point gets its PCA normal (normal_k neighbours) and a vote of
-//     the field on its orientation: s = sum over k in {1, 2, 4} of (F(p + k h n) - F(p - k h n)) / (k h)
-//     weighted 1, 1/2, 1/4 and scaled so that a signed distance growing along n votes 1, with
-//     h = probe x scale, or noise_probe standard deviations of the neighbours along the normal when
-//     that is more. A point where |F| exceeds max(zero_set x scale, h) is not on the field's zero
-//     set and does not vote. Where the field is right near the data (what the pulling loss trains)
-//     the vote gives the outward normal, whatever F does further away. Points whose vote is weak
-//     (|s| < confident_vote: the field is flat or unsigned there, as across a plugged hole) take the
-//     orientation of their neighbours, spread best-first (most parallel normals first) from the
-//     confident points. When fewer than min_confident of the points vote confidently (a very noisy
-//     cloud, whose field is flat across the noise band) nothing is corrected (stats.skipped).
+//  1. Oriented normals: the PCA normals of the input points oriented by the field's own votes
+//     (field_normals.hpp; where the field is right near the data, what the pulling loss trains,
+//     the vote gives the outward normal, whatever F does further away). When fewer than
+//     min_confident of the points vote confidently (a very noisy cloud, whose field is flat
+//     across the noise band) nothing is corrected (stats.skipped).
 //     When the oriented points enclose a negative volume (the field is negative outside), every
 //     normal is turned, so that w below is 1 inside whatever the field's convention.
 //  2. The generalised winding number of the oriented points (Barill et al. 2018, for point clouds):
@@ -33,6 +27,7 @@
 
 #include "pcp/cloud/kdtree.hpp"
 #include "pcp/core/types.hpp"
+#include "pcp/mesh/field_normals.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 
 #include <Eigen/Core>
@@ -44,11 +39,7 @@ namespace pcp {
 
 struct WindingSignOptions {
     bool enabled = false;   ///< off (the default: measured in docs/BENCHMARKS.md): apply() is the identity, nothing is computed
-    int normal_k = 16;      ///< neighbours of the PCA normal (3..64)
-    double probe = 0.25;    ///< orientation probe step h in units of the sampling scale (> 0)
-    double noise_probe = 3.0;  ///< ... or this many standard deviations of the points along the normal, when more
-    double zero_set = 0.25;  ///< a point votes only when |F| there is at most this (units of the sampling scale)
-    double confident_vote = 0.5;  ///< a point whose vote is below this (1: a signed distance) takes its neighbours' orientation
+    FieldNormalsOptions normals;  ///< the PCA normals and the field's vote on their orientation (field_normals.hpp)
     double min_confident = 0.5;   ///< fewer confident points than this fraction: the field cannot orient the cloud, nothing is corrected
     double near_k = 0.4;    ///< tau in units of the sampling scale (0.4: about 1.5 spacings of an even sampling)
     double margin = 0.2;    ///< the winding number decides where |w - 0.5| > margin (0..0.5)
