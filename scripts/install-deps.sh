@@ -6,6 +6,7 @@ packages=(build-essential cmake ninja-build pkg-config
           libeigen3-dev libcgal-dev libnanoflann-dev catch2 libcxxopts-dev time libpng-dev
           libopenblas-openmp-dev   # OpenBLAS: nn::gemm's default fp32 back end (PCP_BLAS=AUTO)
           libdnnl-dev              # oneDNN: the bf16 products of --precision bf16/auto (PCP_DNNL=AUTO)
+          python3-dev pybind11-dev python3-numpy python3-pytest  # the Python module (python/) and its tests
           libopen3d-dev)           # Open3D: the screened-Poisson baseline of the benchmarks (bench/poisson_open3d.cpp)
 missing=()
 for p in "${packages[@]}"; do
