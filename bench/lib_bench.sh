@@ -17,6 +17,27 @@ bench_score() {
     printf "%.4f / %.3f" "$l2" "$nc"
 }
 
+# bench_kept_networks_setup: for the scripts that re-mesh a benchmark run's kept networks
+# (remesh_variants.sh, run_normals.sh; `repo` set): BIN, MANIFEST, PRESET from the environment or
+# their defaults, `data` (the manifest's directory); bench_case_file CASE COLUMN (3 input, 4 gt):
+# the case's file.
+bench_kept_networks_setup() {
+    BIN=${BIN:-$repo/build/bin}
+    MANIFEST=${MANIFEST:-$repo/../shared/data/MANIFEST.tsv}
+    PRESET=${PRESET:-default}
+    data=$(dirname "$MANIFEST")
+}
+bench_case_file() { echo "$data/$(awk -F'\t' -v c="$1" -v k="$2" '$1==c{print $k}' "$MANIFEST")"; }
+# bench_kept_cases OUT: one line "CASE DIR INPUT GT" per case of $CASES (default: every case with a
+# GT mesh) whose OUT/CASE/pcp.ply.ckpt exists.
+bench_kept_cases() {
+    local c
+    for c in ${CASES:-$(awk -F'\t' 'NR>1 && $4!="-"{print $1}' "$MANIFEST")}; do
+        [ -f "$1/$c/pcp.ply.ckpt" ] || continue
+        echo "$c $1/$c $(bench_case_file "$c" 3) $(bench_case_file "$c" 4)"
+    done
+}
+
 die_usage() { echo "$prog: $*" >&2; echo "$prog: see --help" >&2; exit 2; }
 need_value() { [ $# -ge 2 ] && [ -n "$2" ] || die_usage "$1 needs a value"; }
 

@@ -8,8 +8,8 @@
 #include "pcp/core/error.hpp"
 #include "pcp/io/io.hpp"
 
-#include <open3d/geometry/KDTreeSearchParam.h>
-#include <open3d/geometry/PointCloud.h>
+#include "open3d_normals.hpp"
+
 
 #include <chrono>
 #include <iostream>
@@ -31,12 +31,7 @@ int main(int argc, char** argv) {
         PCP_CHECK(output != input, output << ": the output would overwrite the input");
         const auto t0 = std::chrono::steady_clock::now();
         const pcp::PointCloud cloud = pcp::read_point_cloud(input);
-        PCP_CHECK(cloud.points.rows() > k, input << ": " << cloud.points.rows() << " points, fewer than the " << k << " neighbours");
-        open3d::geometry::PointCloud pc;
-        pc.points_.reserve(static_cast<std::size_t>(cloud.points.rows()));
-        for (Eigen::Index i = 0; i < cloud.points.rows(); ++i) pc.points_.emplace_back(cloud.points.row(i).transpose());
-        pc.EstimateNormals(open3d::geometry::KDTreeSearchParamKNN(k));
-        pc.OrientNormalsConsistentTangentPlane(static_cast<std::size_t>(orient_k));
+        const open3d::geometry::PointCloud pc = pcp_bench::open3d_oriented_cloud(cloud.points, k, orient_k, input);
         pcp::PointCloud out;
         out.points = cloud.points;
         for (int c = 0; c < 3; ++c) {

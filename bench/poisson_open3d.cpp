@@ -9,8 +9,8 @@
 #include "pcp/core/error.hpp"
 #include "pcp/io/io.hpp"
 
-#include <open3d/geometry/KDTreeSearchParam.h>
-#include <open3d/geometry/PointCloud.h>
+#include "open3d_normals.hpp"
+
 #include <open3d/geometry/TriangleMesh.h>
 
 #include <algorithm>
@@ -37,12 +37,7 @@ int main(int argc, char** argv) {
         PCP_CHECK(output != input, output << ": the output would overwrite the input");
         const auto t0 = std::chrono::steady_clock::now();
         const pcp::PointCloud cloud = pcp::read_point_cloud(input);
-        PCP_CHECK(cloud.points.rows() > k, input << ": " << cloud.points.rows() << " points, fewer than the " << k << " neighbours");
-        open3d::geometry::PointCloud pc;
-        pc.points_.reserve(static_cast<std::size_t>(cloud.points.rows()));
-        for (Eigen::Index i = 0; i < cloud.points.rows(); ++i) pc.points_.emplace_back(cloud.points.row(i).transpose());
-        pc.EstimateNormals(open3d::geometry::KDTreeSearchParamKNN(k));
-        pc.OrientNormalsConsistentTangentPlane(static_cast<std::size_t>(orient_k));
+        const open3d::geometry::PointCloud pc = pcp_bench::open3d_oriented_cloud(cloud.points, k, orient_k, input);
         auto [mesh, density] = open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(pc, static_cast<std::size_t>(depth));
         PCP_CHECK(mesh && !mesh->triangles_.empty(), input << ": Open3D's Poisson reconstruction produced no surface");
         if (trim > 0 && !density.empty()) {

@@ -13,22 +13,14 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 repo=$(cd "$here/.." && pwd)
-BIN=${BIN:-$repo/build/bin}
-MANIFEST=${MANIFEST:-$repo/../shared/data/MANIFEST.tsv}
-PRESET=${PRESET:-default}
+# shellcheck source=bench/lib_bench.sh
+source "$here/lib_bench.sh"
+bench_kept_networks_setup
 [ $# -ge 2 ] || { sed -n 2,14p "$0"; exit 2; }
 out=$1
 shift
-data=$(dirname "$MANIFEST")
-# shellcheck source=bench/lib_bench.sh
-source "$here/lib_bench.sh"
 score() { bench_score "$BIN/pcp_eval" "$1" "$2"; }
-cases=${CASES:-$(awk -F'\t' 'NR>1 && $4!="-"{print $1}' "$MANIFEST")}
-for c in $cases; do
-    d=$out/$c
-    [ -f "$d/pcp.ply.ckpt" ] || continue
-    input=$data/$(awk -F'\t' -v c="$c" '$1==c{print $3}' "$MANIFEST")
-    gt=$data/$(awk -F'\t' -v c="$c" '$1==c{print $4}' "$MANIFEST")
+bench_kept_cases "$out" | while read -r c d input gt; do
     line="$c | pcp $(score "$d/pcp.ply" "$gt")"
     for v in "$@"; do
         name=${v%%:*}

@@ -14,12 +14,11 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 repo=$(cd "$here/.." && pwd)
-BIN=${BIN:-$repo/build/bin}
-MANIFEST=${MANIFEST:-$repo/../shared/data/MANIFEST.tsv}
-PRESET=${PRESET:-default}
+# shellcheck source=bench/lib_bench.sh
+source "$here/lib_bench.sh"
+bench_kept_networks_setup
 [ $# -eq 1 ] || { sed -n 2,14p "$0"; exit 2; }
 out=$1
-data=$(dirname "$MANIFEST")
 locked() { if [ -n "${LOCK:-}" ]; then flock "$LOCK" "$@"; else "$@"; fi; }
 field() { awk -F'\t' -v k="$2" '$1==k{print $2}' "$1"; }
 row() {  # TSV of pcp_eval --normals -> "correct % | mean | median | unoriented"
@@ -28,12 +27,7 @@ row() {  # TSV of pcp_eval --normals -> "correct % | mean | median | unoriented"
 }
 echo "| case | points | PCP: correct side | mean angle ° | median ° | unoriented ° | Open3D: correct side | mean angle ° | median ° | unoriented ° | PCP normals s | Open3D s |"
 echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
-cases=${CASES:-$(awk -F'\t' 'NR>1 && $4!="-"{print $1}' "$MANIFEST")}
-for c in $cases; do
-    d=$out/$c
-    [ -f "$d/pcp.ply.ckpt" ] || continue
-    input=$data/$(awk -F'\t' -v c="$c" '$1==c{print $3}' "$MANIFEST")
-    gt=$data/$(awk -F'\t' -v c="$c" '$1==c{print $4}' "$MANIFEST")
+bench_kept_cases "$out" | while read -r c d input gt; do
     cp "$d/pcp.ply.ckpt" "$d/normals_mesh.ply.ckpt"
     cp "$d/pcp.ply.ckpt.prior" "$d/normals_mesh.ply.ckpt.prior"
     if ! locked "$BIN/pcp_reconstruct" "$input" -o "$d/normals_mesh.ply" --preset "$PRESET" --resume --keep-checkpoint \
