@@ -46,8 +46,8 @@ int main(int argc, char** argv) {
         options.add_options()
             ("input", "Point cloud file", cxxopts::value<std::string>())
             ("o,output", "Output mesh (.ply .obj .off)", cxxopts::value<std::string>()->default_value("pcp_mesh.ply"))
-            ("normals", "Also write the input points with their oriented normals (nx ny nz, outward, read off the "
-                        "fitted field; .ply .xyz .npy)", cxxopts::value<std::string>()->default_value(""))
+            ("normals", "Also write the input points with their oriented normals (nx ny nz, outward, from the "
+                        "fitted surface: see --normals-from; .ply .xyz .npy)", cxxopts::value<std::string>()->default_value(""))
             ("normals-from", "mesh | pca | field: the final mesh's normal at the nearest point; the PCA normal "
                              "turned to the mesh's side; or the PCA normal oriented by the fitted field's own votes",
              cxxopts::value<std::string>()->default_value(pcp::to_string(d.normal_source)))
