@@ -22,7 +22,7 @@ endif()
 
 function(pcp_set_warnings target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wno-unknown-pragmas)
-  if(PCP_SANITIZE)
+  if(PCP_SANITIZE AND CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
     # GCC 12 reports false -Wmaybe-uninitialized inside std::regex (used by cxxopts) when the
     # sanitizers are on; with -Werror that would stop the build, so that one warning is off there.
     target_compile_options(${target} PRIVATE -Wno-maybe-uninitialized)

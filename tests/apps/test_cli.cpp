@@ -103,7 +103,7 @@ TEST_CASE("cli: unreadable, empty and malformed files are named with the problem
     expect_failure(dir / "cloud.foo", out, "cloud.foo");
 }
 
-TEST_CASE("cli: too few and degenerate clouds say why", "[cli]") {
+TEST_CASE("cli: too few and degenerate clouds say why", "[cli][heavy]") {
     const fs::path dir = case_dir("degenerate");
     const fs::path out = dir / "out.ply";
     const pcp::PointCloud good = pcp::sample_sphere(200, 1.0, Eigen::Vector3d::Zero(), 2);
@@ -349,7 +349,7 @@ TEST_CASE("cli: pcp_eval --sdf-samples reports the sign agreement, bad sample fi
     CHECK(bad_convention.err.find("--sdf-convention") != std::string::npos);
 }
 
-TEST_CASE("cli: --precision: bad values exit 2 naming the flag, and the run's summary names the precision", "[cli]") {
+TEST_CASE("cli: --precision: bad values exit 2 naming the flag, and the run's summary names the precision", "[cli][heavy]") {
     for (const char* program : {"pcp_reconstruct", "pcp_train"}) {
         const RunResult bad = run(bin(program) + " --precision fp16 x.ply");
         INFO(program << " stderr: " << bad.err);

@@ -49,7 +49,7 @@ Agreement check_labels(const pcp::VisibilityLabels& l, const pcp::PreparedCloud&
 
 }  // namespace
 
-TEST_CASE("visibility: a sphere's inside and outside are labelled, and nothing wrongly", "[visibility]") {
+TEST_CASE("visibility: a sphere's inside and outside are labelled, and nothing wrongly", "[visibility][heavy]") {
     const pcp::PointCloud s = pcp::sample_sphere(6000, 0.4, Eigen::Vector3d::Zero(), 3);
     const pcp::PreparedCloud cloud(s.points, "sphere", 2);
     const pcp::VisibilityLabels l = pcp::label_by_visibility(cloud.tree(), grown_box(cloud.unit(), 0.05));
@@ -62,7 +62,7 @@ TEST_CASE("visibility: a sphere's inside and outside are labelled, and nothing w
     CHECK(l.inside_cells.size() == std::size_t(a.inside));
 }
 
-TEST_CASE("visibility: the default shape's through-hole is outside, its block inside", "[visibility]") {
+TEST_CASE("visibility: the default shape's through-hole is outside, its block inside", "[visibility][heavy]") {
     const pcp::PointCloud s = pcp::sample_default_shape(20000, 0.0, 5);
     const pcp::PreparedCloud cloud(s.points, "default shape", 2);
     // The middle of the hole sees out through its two ends (about 16 % of the directions): outside
@@ -83,7 +83,7 @@ TEST_CASE("visibility: the default shape's through-hole is outside, its block in
     CHECK(hole_outside >= 3);
 }
 
-TEST_CASE("visibility: from inside an open shell the opening is seen, so nothing there is inside", "[visibility]") {
+TEST_CASE("visibility: from inside an open shell the opening is seen, so nothing there is inside", "[visibility][heavy]") {
     // A sphere with its cap above z = 0.25 cut away: the centre sees out through the cap (about 19 %
     // of the directions), and without the cut it sees nothing.
     const pcp::PointCloud full = pcp::sample_sphere(8000, 0.4, Eigen::Vector3d::Zero(), 4);

@@ -203,7 +203,7 @@ TEST_CASE("sign repair: bad options and inputs are errors", "[sign_repair]") {
     CHECK_THROWS_AS(identity.apply(points.topRows(3), v), pcp::Error);
 }
 
-TEST_CASE("sign repair: visibility labels open a part that the field closed with membranes", "[sign_repair]") {
+TEST_CASE("sign repair: visibility labels open a part that the field closed with membranes", "[sign_repair][heavy]") {
     // Data: a U-shaped channel (two walls at x = +-0.15 and a floor at z = -0.3, 0.8 long in y).
     // Field: the solid box the channel spans (negative inside), so membranes close its top and its
     // ends. Two thirds of the inside's boundary lies along the walls, so the component rule keeps it;
@@ -235,7 +235,7 @@ TEST_CASE("sign repair: visibility labels open a part that the field closed with
     CHECK(value_at(field, ignored, {0, 0, 0}) < 0);
 }
 
-TEST_CASE("sign repair: the label vote leaves a positive inside to the cavity fill", "[sign_repair]") {
+TEST_CASE("sign repair: the label vote leaves a positive inside to the cavity fill", "[sign_repair][heavy]") {
     // A thin negative shell around the sphere with the inside positive: the labels say inside, but
     // a coarse flip would leave the shell's inner layer as a sheet, so the vote does not act.
     const pcp::SdfBatchFn field = batch([](const Eigen::Vector3d& p) { return std::abs(p.norm() - 0.3) - 0.01; });

@@ -142,7 +142,7 @@ TEST_CASE("ablation: resume restores the trained F and the free code (weights id
     }
 }
 
-TEST_CASE("ablation: reconstruct() in the no-prior mode trains no self-prior", "[ablation]") {
+TEST_CASE("ablation: reconstruct() in the no-prior mode trains no self-prior", "[ablation][heavy]") {
     const ThreadsGuard threads(2);
     pcp::ReconstructOptions o = pcp::ReconstructOptions::preset("fast");
     o.self_prior.network.width = 32;
@@ -157,7 +157,7 @@ TEST_CASE("ablation: reconstruct() in the no-prior mode trains no self-prior", "
     CHECK(mesh.faces.rows() > 0);
 }
 
-TEST_CASE("sign guide: guided queries join the batch and push the field to the labelled sides and change the fingerprint", "[ablation]") {
+TEST_CASE("sign guide: guided queries join the batch and push the field to the labelled sides and change the fingerprint", "[ablation][heavy]") {
     const ThreadsGuard threads(1);
     const std::int64_t steps = 60;
     pcp::QueryFitOptions plain = toy_fit(QueryAblation::None, steps);
