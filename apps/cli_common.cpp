@@ -93,6 +93,9 @@ std::string apply_precision(const cxxopts::ParseResult& args) {
 }
 
 int run_main(const char* program, const std::function<int()>& body) {
+    // Past a file-size limit (ulimit -f) a write fails with EFBIG instead of the process being
+    // killed by SIGXFSZ: the writer then reports it, removes its temporary file and exits non-zero.
+    std::signal(SIGXFSZ, SIG_IGN);
     try {
         return body();
     } catch (const UsageError& e) {

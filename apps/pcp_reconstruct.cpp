@@ -88,6 +88,9 @@ int main(int argc, char** argv) {
                                "fp32 (default) even when training runs bf16, or the training's",
              cxxopts::value<std::string>()->default_value(d.fp32_grid ? "fp32" : "training"));
         options.add_options("Meshing")
+            ("max-points", "Fit inputs of more points on a uniform random subsample of this many (0 = all points; "
+                           "bounds the memory of huge inputs; the mesh and --normals still cover every point)",
+             cxxopts::value<long>()->default_value(std::to_string(d.max_fit_points)))
             ("resolution", "Marching-cubes cells along the longest axis", cxxopts::value<int>()->default_value(std::to_string(d.resolution)))
             ("iso", "Iso level", cxxopts::value<double>()->default_value(fmt(d.iso)))
             ("margin", "Margin around the cloud's unit box", cxxopts::value<double>()->default_value(fmt(d.margin)))
@@ -171,6 +174,9 @@ int main(int argc, char** argv) {
         if (args.count("checkpoint-every")) o.fit.schedule.checkpoint_every = args["checkpoint-every"].as<long>();
         if (args.count("progress-every")) o.fit.schedule.progress_every = args["progress-every"].as<long>();
         if (args.count("resolution")) o.resolution = args["resolution"].as<int>();
+        o.max_fit_points = args["max-points"].as<long>();
+        if (o.max_fit_points != 0 && o.max_fit_points < pcp::min_points_for(o.fit.sampling))
+            throw pcp::cli::UsageError("--max-points must be 0 or >= " + std::to_string(pcp::min_points_for(o.fit.sampling)));
         if (args.count("iso")) o.iso = args["iso"].as<double>();
         if (args.count("margin")) o.margin = args["margin"].as<double>();
         if (o.fit.steps < 1 || o.fit.queries_per_step < 1 || !(o.fit.schedule.learning_rate > 0) || o.fit.width < 1 ||
@@ -294,7 +300,10 @@ int main(int argc, char** argv) {
         if (!prior_path.empty()) prior = pcp::load_prior(prior_path);
         const double t_read = pcp::cli::seconds_since(t_start);
 
-        pcp::cli::print_parameter_table(log, {{"input", input + " (" + std::to_string(cloud.points.rows()) + " points)"},
+        const bool subsampled = o.max_fit_points > 0 && cloud.points.rows() > o.max_fit_points;
+        pcp::cli::print_parameter_table(log, {{"input", input + " (" + std::to_string(cloud.points.rows()) + " points" +
+                                                            (subsampled ? "; the fit uses a random " + std::to_string(o.max_fit_points) +
+                                                                              " of them (--max-points)" : std::string()) + ")"},
                                               {"output", output},
                                               {"prior", !prior_path.empty() ? prior_path
                                                         : o.fit.ablation == pcp::QueryAblation::NoPrior ? "none (F trained from scratch)"

@@ -7,6 +7,7 @@ packages=(build-essential cmake ninja-build pkg-config
           libopenblas-openmp-dev   # OpenBLAS: nn::gemm's default fp32 back end (PCP_BLAS=AUTO)
           libdnnl-dev              # oneDNN: the bf16 products of --precision bf16/auto (PCP_DNNL=AUTO)
           python3-dev pybind11-dev python3-numpy python3-pytest  # the Python module (python/) and its tests
+          clang-14 libclang-rt-14-dev libomp-14-dev  # libFuzzer targets of the readers (tests/fuzz/)
           libopen3d-dev)           # Open3D: the screened-Poisson baseline of the benchmarks (bench/poisson_open3d.cpp)
 missing=()
 for p in "${packages[@]}"; do

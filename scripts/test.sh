@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # The README's test command: installs dependencies, builds Release with warnings as errors, runs
-# every CTest label (unit, e2e, realdata, install-consumer), then builds again with
+# every CTest label (unit, e2e, realdata, install-consumer), runs the readers' libFuzzer targets
+# for a short smoke (clang, build-fuzz/), then builds again with
 # AddressSanitizer + UndefinedBehaviorSanitizer and runs the unit tests under them. After each
 # CTest run it prints which GEMM back ends and precisions that build ran (test cases of an absent
 # one are reported Skipped by CTest).
-# Build directories: build-test/ and build-asan/ (override with PCP_BUILD_ROOT).
+# Build directories: build-test/, build-fuzz/ and build-asan/ (override with PCP_BUILD_ROOT).
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 root=${PCP_BUILD_ROOT:-$here}
@@ -26,6 +27,19 @@ bash "$here/scripts/install-deps.sh"
 cmake -S "$here" -B "$root/build-test" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPCP_WERROR=ON -DPCP_BUILD_BENCH=OFF
 cmake --build "$root/build-test" -j "$jobs"
 run_ctest "$root/build-test" --output-on-failure -j "$jobs"
+
+# The readers' libFuzzer targets (tests/fuzz/), each run for PCP_FUZZ_SECONDS (default 30) from
+# its seed corpus, where clang is installed (install-deps.sh installs it). Long campaigns:
+# scripts/fuzz.sh.
+if command -v clang++-14 >/dev/null; then
+  cmake -S "$here" -B "$root/build-fuzz" -G Ninja -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_BUILD_TYPE=Debug \
+        -DCMAKE_CXX_FLAGS_DEBUG=-O0 -DPCP_FUZZ=ON -DPCP_FUZZ_SECONDS="${PCP_FUZZ_SECONDS:-30}" \
+        -DPCP_BUILD_APPS=OFF -DPCP_BUILD_TESTS=OFF -DPCP_BUILD_BENCH=OFF -DPCP_BUILD_PYTHON=OFF
+  cmake --build "$root/build-fuzz" -j "$jobs"
+  ctest --test-dir "$root/build-fuzz" --output-on-failure -j "$jobs" -L fuzz
+else
+  echo "test.sh: the fuzz smoke tests did not run: clang++-14 is not installed (scripts/install-deps.sh installs it)"
+fi
 
 cmake -S "$here" -B "$root/build-asan" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-O1 -DPCP_WERROR=ON \
       -DPCP_SANITIZE=ON -DPCP_BUILD_BENCH=OFF

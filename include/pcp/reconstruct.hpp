@@ -52,6 +52,11 @@ struct ReconstructOptions {
     /// part of the time; bf16 rounding in the evaluation roughens the extracted surface. While it
     /// runs, reconstruct() sets the process-wide precision to fp32 and restores it afterwards.
     bool fp32_grid = true;
+    /// Inputs of more points than this are fitted on a uniform random subsample of this many
+    /// (seeded by fit.schedule.seed, input order kept; 0 = never): the memory and time of the fit
+    /// then stop growing with the input (docs/BENCHMARKS.md, "Huge inputs"). The mesh is in the
+    /// input's frame as always, and the oriented normals are given for every input point.
+    Eigen::Index max_fit_points = 1000000;
     ProgressCallback progress;       ///< forwarded to every stage ("prior", "query-net", "sdf-grid")
 
     /// Named presets: "paper", "default", "fast". Throws pcp::Error for other names.
@@ -77,6 +82,8 @@ struct ReconstructReport {
     bool sign_flipped = false;       ///< the fitted SDF was negated so that the outside is positive
     bool closed = false;             ///< every edge of the mesh is shared by exactly two faces
     bool cancelled = false;
+    std::int64_t input_points = 0;   ///< points given
+    std::int64_t fit_points = 0;     ///< points the fit used (fewer than input_points above ReconstructOptions::max_fit_points)
 };
 
 /// Point cloud (input frame) -> mesh (input frame, outward faces). With `prior` null a self-prior

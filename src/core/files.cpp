@@ -65,9 +65,13 @@ void write_file_atomically(const std::string& path,
             std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
             PCP_CHECK(out, path << ": cannot create temporary file '" << tmp.string()
                                 << "': " << std::strerror(errno));
+            errno = 0;
             write(out);
             out.flush();
-            PCP_CHECK(out, path << ": write failed (disk full?)");
+            PCP_CHECK(out, path << ": write failed: "
+                                << (errno != 0 ? std::strerror(errno) : "the stream reported an error (disk full?)"));
+            out.close();
+            PCP_CHECK(!out.fail(), path << ": write failed on close: " << (errno != 0 ? std::strerror(errno) : "disk full?"));
         }
         const int fd = ::open(tmp.c_str(), O_RDONLY);
         PCP_CHECK(fd >= 0, path << ": cannot reopen temporary file for sync");

@@ -262,7 +262,7 @@ template <class Source>
 std::int64_t read_list_count(Source& src, const PlyProperty& p, const PlyElement& e, std::uint64_t row,
                              const std::string& path) {
     const double c = src.read(p.count_type, e, row);
-    PCP_CHECK(c >= 0 && c == std::floor(c),
+    PCP_CHECK(c >= 0 && c <= 2147483647.0 && c == std::floor(c),
               path << ": " << src.where() << "invalid list length " << c << " in row " << row
                    << " of element '" << e.name << "'");
     return static_cast<std::int64_t>(c);
@@ -307,6 +307,7 @@ void read_vertices(Source& src, const PlyElement& e, bool binary, bool keep_prop
     std::vector<double*> dest(e.properties.size(), nullptr);
     std::vector<Eigen::Index> stride(e.properties.size(), 1);
     for (int c = 0; c < 3; ++c) {
+        if (n == 0) break;  // no rows: nothing to point at (and data() is null)
         dest[static_cast<std::size_t>(xyz[c])] = cloud.points.data() + c;
         stride[static_cast<std::size_t>(xyz[c])] = 3;
     }

@@ -235,10 +235,44 @@ void copy_params(const NetRecord<S>& rec, Net& net) {
     net.params = rec.params;
 }
 
+/// Refuses a record whose shape does not need exactly its stored parameters, before any network
+/// of that shape is allocated (a damaged shape could otherwise ask for terabytes). `count` is the
+/// shape's parameter count in double precision (no integer overflow), -1 for an invalid shape.
+template <class S>
+void check_param_count(const NetRecord<S>& rec, double count) {
+    PCP_CHECK(count >= 0, "network '" << rec.name << "': invalid shape");
+    PCP_CHECK(count == static_cast<double>(rec.params.size()),
+              "network '" << rec.name << "': " << rec.params.size() << " parameters stored, its shape needs " << count);
+}
+
+double branch_param_count(const BranchMlpShape& s) {
+    if (s.in_a < 1 || s.in_b < 0 || s.width < 1 || s.depth < 1 || s.out < 1) return -1;
+    const double H = s.width;
+    double n = H * s.in_a + H;
+    if (s.in_b > 0) n += H * s.in_b + H;
+    n += H * (s.in_b > 0 ? 2 * H : H) + H;
+    n += (s.depth - 1) * (H * H + H);
+    return n + s.out * H + s.out;
+}
+
+double pointnet_param_count(const PointNetShape& s) {
+    double n = 0;
+    for (const std::vector<int>* widths : {&s.point_widths, &s.head_widths}) {
+        if (widths->size() < 2) return -1;
+        for (std::size_t k = 0; k < widths->size(); ++k) {
+            if ((*widths)[k] < 1) return -1;
+            if (k > 0) n += static_cast<double>((*widths)[k]) * (*widths)[k - 1] + (*widths)[k];
+        }
+    }
+    return n;
+}
+
 template <class S>
 BranchMlp<S> to_branch_mlp(const NetRecord<S>& rec) {
     PCP_CHECK(rec.kind == NetKind::BranchMlp, "network '" << rec.name << "' is not a BranchMlp");
-    BranchMlp<S> net(branch_shape_of(rec.shape, rec.name));
+    const BranchMlpShape shape = branch_shape_of(rec.shape, rec.name);
+    check_param_count(rec, branch_param_count(shape));
+    BranchMlp<S> net(shape);
     copy_params(rec, net);
     return net;
 }
@@ -246,7 +280,9 @@ BranchMlp<S> to_branch_mlp(const NetRecord<S>& rec) {
 template <class S>
 PointNet<S> to_pointnet(const NetRecord<S>& rec) {
     PCP_CHECK(rec.kind == NetKind::PointNet, "network '" << rec.name << "' is not a PointNet");
-    PointNet<S> net(pointnet_shape_of(rec.shape, rec.name));
+    const PointNetShape shape = pointnet_shape_of(rec.shape, rec.name);
+    check_param_count(rec, pointnet_param_count(shape));
+    PointNet<S> net(shape);
     copy_params(rec, net);
     return net;
 }
@@ -264,6 +300,12 @@ NetFile<S> load_net_file(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
     PCP_CHECK(in, path << ": cannot open network file");
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    PCP_CHECK(!in.bad(), path << ": read error");
+    return parse_net_file<S>(path, bytes);
+}
+
+template <class S>
+NetFile<S> parse_net_file(const std::string& path, const std::string& bytes) {
     PCP_CHECK(std::memcmp(bytes.data(), kMagic, std::min<std::size_t>(8, bytes.size())) == 0,
               path << ": not a libpcp network file (bad magic)");
     PCP_CHECK(bytes.size() >= kFixedHeader,
@@ -302,7 +344,8 @@ NetFile<S> load_net_file(const std::string& path) {
     template BranchMlp<S> to_branch_mlp<S>(const NetRecord<S>&);                                   \
     template PointNet<S> to_pointnet<S>(const NetRecord<S>&);                                      \
     template void save_net_file<S>(const std::string&, const NetFile<S>&);                         \
-    template NetFile<S> load_net_file<S>(const std::string&);
+    template NetFile<S> load_net_file<S>(const std::string&);                                      \
+    template NetFile<S> parse_net_file<S>(const std::string&, const std::string&);
 PCP_NN_INSTANTIATE_CHECKPOINT(float)
 PCP_NN_INSTANTIATE_CHECKPOINT(double)
 #undef PCP_NN_INSTANTIATE_CHECKPOINT

@@ -9,6 +9,7 @@
 
 #include "pcp/cloud/prepared_cloud.hpp"
 #include "pcp/core/error.hpp"
+#include "pcp/core/rng.hpp"
 #include "pcp/mesh/marching_cubes.hpp"
 #include "pcp/mesh/mesh_check.hpp"
 #include "pcp/mesh/surface_fit.hpp"
@@ -63,6 +64,33 @@ struct GridPrecision {
     GridPrecision& operator=(const GridPrecision&) = delete;
 };
 
+/// `count` of the rows of `points`, drawn uniformly without replacement (seeded), in input order.
+Points random_subset(const Eigen::Ref<const Points>& points, Eigen::Index count, std::uint64_t seed) {
+    const Eigen::Index n = points.rows();
+    std::vector<Eigen::Index> index(static_cast<std::size_t>(n));
+    for (Eigen::Index i = 0; i < n; ++i) index[static_cast<std::size_t>(i)] = i;
+    Rng rng(seed, 0x5B5A3F1E00000000ull);
+    for (Eigen::Index i = 0; i < count; ++i) {  // a partial Fisher-Yates shuffle
+        const auto j = static_cast<Eigen::Index>(static_cast<std::uint64_t>(i) + rng.below(static_cast<std::uint64_t>(n - i)));
+        std::swap(index[static_cast<std::size_t>(i)], index[static_cast<std::size_t>(j)]);
+    }
+    std::sort(index.begin(), index.begin() + count);
+    Points out(count, 3);
+    for (Eigen::Index i = 0; i < count; ++i) out.row(i) = points.row(index[static_cast<std::size_t>(i)]);
+    return out;
+}
+
+/// Per-point values of the fitted cloud, given to every input point: the same rows, or, when the
+/// fit used a subsample, the row of the fitted point nearest to each input point.
+PointsF per_input_point(const PointsF& values, const PreparedCloud& cloud, const Eigen::Ref<const Points>& all_points,
+                        bool subsampled) {
+    if (!subsampled) return values;
+    const IndexVector nearest = cloud.tree().nearest(cloud.normalization().to_unit(all_points));
+    PointsF out(all_points.rows(), values.cols());
+    for (Eigen::Index i = 0; i < all_points.rows(); ++i) out.row(i) = values.row(nearest(i));
+    return out;
+}
+
 /// The prior to fit against: `given`, else (with checkpoints on and --resume) the self-prior kept
 /// beside the query-net checkpoint, else F's sizes only (no-prior ablation), else a self-prior
 /// trained on the cloud. Null when the training was cancelled.
@@ -79,22 +107,34 @@ const LocalPrior* obtain_prior(const LocalPrior* given, const PreparedCloud& clo
     }
     PriorTrainOptions po = options.self_prior;
     po.schedule.progress = chain(po.schedule.progress, options.progress);
+    // With checkpoints on, the self-prior's training is checkpointed too (OUT.ckpt.prior-training,
+    // at the query fit's cadence and when stopped), so that --resume continues it rather than
+    // starting again; the finished prior then replaces it as OUT.ckpt.prior.
+    const std::string training_ckpt = prior_ckpt.empty() ? "" : prior_ckpt + "-training";
+    if (!training_ckpt.empty()) {
+        po.schedule.checkpoint_path = training_ckpt;
+        po.schedule.checkpoint_every = options.fit.schedule.checkpoint_every;
+        po.schedule.resume = options.fit.schedule.resume;
+    }
     PriorTrainer trainer(cloud, po);
     if (!trainer.run()) return nullptr;
     self_prior = trainer.prior();
     r.prior_loss = trainer.recent_loss();
-    if (!prior_ckpt.empty()) save_prior(prior_ckpt, self_prior);
+    if (!prior_ckpt.empty()) {
+        save_prior(prior_ckpt, self_prior);
+        std::error_code ignored;
+        std::filesystem::remove(training_ckpt, ignored);
+    }
     return &self_prior;
 }
 
 }  // namespace
 
-Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior, const ReconstructOptions& options,
-                 ReconstructReport* report, Points* normals) {
-    ReconstructReport local;
-    ReconstructReport& r = report ? *report : local;
-    r = ReconstructReport{};
-    if (normals) normals->resize(0, 3);
+namespace {
+
+Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<const Points>& all_points, bool subsampled,
+                     const LocalPrior* prior, const ReconstructOptions& options, ReconstructReport& r, Points* normals) {
+    r.fit_points = points.rows();
     const Eigen::Index min_points = min_points_for(options.fit.sampling);
     // Optional denoising (include/pcp/cloud/denoise.hpp); everything below works on `cloud`, which
     // checks what it is given. The raw input is checked here only when it is denoised first.
@@ -175,7 +215,7 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     if (normals && options.normal_source == NormalSource::Field) {
         const FieldNormals oriented = orient_normals_by_field(fitted, cloud.tree(), options.normals);
         r.normals = oriented.stats;
-        *normals = oriented.normals.cast<double>();
+        *normals = per_input_point(oriented.normals, cloud, all_points, subsampled).cast<double>();
     }
     // Away from the data the sign is the winding number's of the field-oriented input points
     // (include/pcp/mesh/winding_sign.hpp).
@@ -228,10 +268,10 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     if (normals && options.normal_source != NormalSource::Field) {
         // Read off the final mesh at the point nearest to each input point (include/pcp/mesh/field_normals.hpp).
         const auto t_normals = std::chrono::steady_clock::now();
-        *normals = mesh_normals_at(mesh, points);
+        *normals = mesh_normals_at(mesh, all_points);
         if (options.normal_source == NormalSource::PcaByMesh) {
             // The PCA direction of the (denoised) cloud, turned to the mesh's side.
-            const PointsF pca = pca_normals(cloud.tree(), options.normals.normal_k);
+            const PointsF pca = per_input_point(pca_normals(cloud.tree(), options.normals.normal_k), cloud, all_points, subsampled);
             for (Eigen::Index i = 0; i < normals->rows(); ++i) {
                 const Eigen::RowVector3d d = pca.row(i).cast<double>();
                 normals->row(i) = d.dot(normals->row(i)) < 0 ? Eigen::RowVector3d(-d) : d;
@@ -244,6 +284,25 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     std::error_code ignored;
     if (!prior_ckpt.empty() && !options.keep_checkpoints) std::filesystem::remove(prior_ckpt, ignored);
     return mesh;
+}
+
+}  // namespace
+
+Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior, const ReconstructOptions& options,
+                 ReconstructReport* report, Points* normals) {
+    ReconstructReport local;
+    ReconstructReport& r = report ? *report : local;
+    r = ReconstructReport{};
+    if (normals) normals->resize(0, 3);
+    PCP_CHECK(options.max_fit_points >= 0, "reconstruct: max_fit_points must be >= 0, got " << options.max_fit_points);
+    r.input_points = points.rows();
+    // Huge inputs: the fit sees a seeded uniform subsample (ReconstructOptions::max_fit_points).
+    const Points subsample = options.max_fit_points > 0 && points.rows() > options.max_fit_points
+                                 ? random_subset(points, options.max_fit_points, options.fit.schedule.seed)
+                                 : Points();
+    const bool subsampled = subsample.rows() > 0;
+    return reconstruct_fit(subsampled ? Eigen::Ref<const Points>(subsample) : points, points, subsampled, prior,
+                           options, r, normals);
 }
 
 }  // namespace pcp

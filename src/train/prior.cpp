@@ -277,7 +277,9 @@ void PriorTrainer::checkpoint(const std::string& path) const {
     const Impl& m = *impl_;
     nn::NetFile<float> file;
     file.step = static_cast<std::uint64_t>(m.trainer->steps);
-    file.metadata = detail::checkpoint_metadata(m.checkpoint_id).text();
+    nn::Metadata meta = detail::checkpoint_metadata(m.checkpoint_id);
+    meta.add("recent_losses", m.recent.text());
+    file.metadata = meta.text();
     file.nets.push_back(nn::make_record("encoder", m.trainer->encoder, &m.trainer->adam_encoder));
     file.nets.push_back(nn::make_record("decoder", m.trainer->decoder, &m.trainer->adam_decoder));
     nn::save_net_file(path, file);
@@ -285,7 +287,8 @@ void PriorTrainer::checkpoint(const std::string& path) const {
 
 void PriorTrainer::resume(const std::string& path) {
     Impl& m = *impl_;
-    const nn::NetFile<float> file = detail::load_checkpoint(path, m.checkpoint_id, m.total);
+    nn::Metadata meta;
+    const nn::NetFile<float> file = detail::load_checkpoint(path, m.checkpoint_id, m.total, &meta);
     const nn::NetRecord<float>& enc = file.get("encoder");
     const nn::NetRecord<float>& dec = file.get("decoder");
     PCP_CHECK(enc.has_adam && dec.has_adam, path << ": the checkpoint holds no optimiser state");
@@ -294,7 +297,7 @@ void PriorTrainer::resume(const std::string& path) {
     m.trainer->adam_encoder = enc.adam;
     m.trainer->adam_decoder = dec.adam;
     m.trainer->steps = static_cast<std::int64_t>(file.step);
-    m.recent.clear();
+    m.recent.restore(meta.has("recent_losses") ? meta.get("recent_losses") : "", path);
 }
 
 bool PriorTrainer::run() { return detail::run_step_loop(*this, "prior", impl_->total, impl_->options.schedule); }

@@ -9,8 +9,11 @@
 #include "pcp/nn/checkpoint.hpp"
 #include "pcp/nn/metadata.hpp"
 #include "pcp/train/prior.hpp"
+#include "train/prior_io.hpp"
 #include "pcp/version.hpp"
 
+#include <cmath>
+#include <cstdlib>
 #include <sstream>
 
 namespace pcp {
@@ -59,7 +62,10 @@ void save_prior(const std::string& path, const LocalPrior& prior) {
 }
 
 LocalPrior load_prior(const std::string& path) {
-    const nn::NetFile<float> file = nn::load_net_file<float>(path);
+    return detail::prior_from_net_file(path, nn::load_net_file<float>(path));
+}
+
+LocalPrior detail::prior_from_net_file(const std::string& path, const nn::NetFile<float>& file) {
     const nn::Metadata kv(file.metadata, path + ": the prior file");
     PCP_CHECK(kv.has("format"), path << ": not a prior file (a network file without prior settings)");
     PCP_CHECK(kv.get("format") == kPriorFormat,
@@ -72,7 +78,13 @@ LocalPrior load_prior(const std::string& path) {
     prior.sampling.queries_per_point = kv.number<int>("queries_per_point");
     prior.sampling.spreads.clear();
     std::istringstream spreads(kv.get("spreads"));
-    for (std::string item; std::getline(spreads, item, ',');) prior.sampling.spreads.push_back(std::stof(item));
+    for (std::string item; std::getline(spreads, item, ',');) {
+        char* end = nullptr;
+        const float v = std::strtof(item.c_str(), &end);
+        PCP_CHECK(!item.empty() && end == item.c_str() + item.size() && std::isfinite(v) && v > 0.0f,
+                  path << ": bad query spread '" << item << "' in the prior's settings (corrupt file?)");
+        prior.sampling.spreads.push_back(v);
+    }
     prior.sampling.uniform_fraction = kv.number<float>("uniform_fraction");
     prior.sampling.uniform_margin = kv.number<float>("uniform_margin");
     prior.network.width = kv.number<int>("width");
@@ -85,6 +97,19 @@ LocalPrior load_prior(const std::string& path) {
     prior.provenance.library_version = kv.get("trained_with");
     prior.provenance.settings = kv.get("settings");
     prior.provenance.inputs = kv.all("input");
+    // Settings a reconstruction sizes its work by: refused when outside what any trainer writes.
+    const auto in_range = [&](const char* key, double v, double lo, double hi) {
+        PCP_CHECK(std::isfinite(v) && v >= lo && v <= hi,
+                  path << ": the prior's setting " << key << " = " << v << " is outside " << lo << ".." << hi << " (corrupt file?)");
+    };
+    in_range("grid", prior.regions.grid, 1, 64);
+    in_range("min_region_points", static_cast<double>(prior.regions.min_points), 1, 1e9);
+    in_range("sigma_neighbor", prior.sampling.sigma_neighbor, 1, 1024);
+    in_range("queries_per_point", prior.sampling.queries_per_point, 1, 10000);
+    PCP_CHECK(!prior.sampling.spreads.empty() && prior.sampling.spreads.size() <= 64,
+              path << ": the prior's settings hold " << prior.sampling.spreads.size() << " query spreads (corrupt file?)");
+    in_range("uniform_fraction", prior.sampling.uniform_fraction, 0, 1);
+    in_range("uniform_margin", prior.sampling.uniform_margin, 0, 10);
     prior.encoder() = nn::to_pointnet(file.get("encoder"));
     prior.decoder() = nn::to_branch_mlp(file.get("decoder"));
     PCP_CHECK(prior.decoder().shape.width == prior.network.width && prior.decoder().shape.depth == prior.network.depth &&

@@ -305,6 +305,7 @@ void QueryNetFitter::checkpoint(const std::string& path) const {
         meta.add_floats("code_adam_v", tr.adam_code.v);
         meta.add_number("code_adam_t", tr.adam_code.t);
     }
+    meta.add("recent_losses", m.recent.text());
     file.metadata = meta.text();
     file.nets.push_back(nn::make_record("query_net", tr.query_net, &tr.adam_query));
     if (tr.config.train_decoder) file.nets.push_back(nn::make_record("decoder", tr.decoder, &tr.adam_decoder));
@@ -333,7 +334,7 @@ void QueryNetFitter::resume(const std::string& path) {
         m.trainer->adam_code.t = meta.number<std::int64_t>("code_adam_t");
     }
     m.trainer->steps = static_cast<std::int64_t>(file.step);
-    m.recent.clear();
+    m.recent.restore(meta.has("recent_losses") ? meta.get("recent_losses") : "", path);
 }
 
 }  // namespace pcp

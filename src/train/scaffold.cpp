@@ -2,7 +2,9 @@
 #include "train/scaffold.hpp"
 
 #include <cmath>
+#include <cstdlib>
 #include <numeric>
+#include <sstream>
 
 namespace pcp {
 
@@ -51,6 +53,25 @@ void LossWindow::push(double loss) {
 double LossWindow::mean() const {
     if (losses_.empty()) return 0.0;
     return std::accumulate(losses_.begin(), losses_.end(), 0.0) / static_cast<double>(losses_.size());
+}
+
+std::string LossWindow::text() const {
+    std::ostringstream out;
+    out << std::hexfloat;
+    for (std::size_t i = 0; i < losses_.size(); ++i) out << (i ? " " : "") << losses_[i];
+    return out.str();
+}
+
+void LossWindow::restore(const std::string& text, const std::string& source) {
+    losses_.clear();
+    std::istringstream in(text);
+    for (std::string token; in >> token;) {
+        char* end = nullptr;
+        const double v = std::strtod(token.c_str(), &end);
+        PCP_CHECK(end == token.c_str() + token.size() && std::isfinite(v),
+                  source << ": bad loss '" << token << "' in the checkpoint (corrupt file?)");
+        push(v);
+    }
 }
 
 nn::Metadata checkpoint_metadata(const CheckpointId& id) {

@@ -39,6 +39,11 @@ public:
     void push(double loss);
     double mean() const;  ///< 0 when empty
     void clear() { losses_.clear(); }
+    /// The window as a metadata value (exact: hexadecimal doubles), and back; a checkpoint keeps
+    /// it so that a resumed run reports the same recent loss as an uninterrupted one.
+    std::string text() const;
+    /// Restores text() of a checkpoint; throws pcp::Error naming `source` for a malformed value.
+    void restore(const std::string& text, const std::string& source);
 
 private:
     std::size_t capacity_;

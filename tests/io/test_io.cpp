@@ -462,6 +462,27 @@ TEST_CASE("io: empty file", "[io]") {
     }
 }
 
+TEST_CASE("io: a PLY with zero vertices reads as an empty cloud", "[io][fuzz]") {
+    // Found by tests/fuzz/fuzz_ply.cpp: UBSan reported pointer arithmetic on the null data of the
+    // empty point matrix.
+    const fs::path dir = tmp_dir("zero_vertices");
+    const std::string path = put_file(dir / "z.ply",
+                                      "ply\nformat ascii 1.0\nelement vertex 0\nproperty double x\nproperty double y\n"
+                                      "property double z\nproperty float nx\nend_header\n");
+    const pcp::PointCloud cloud = pcp::read_point_cloud(path);
+    CHECK(cloud.points.rows() == 0);
+}
+
+TEST_CASE("io: a PLY list length beyond any integer is an error, not an overflow", "[io][fuzz]") {
+    // Found by tests/fuzz/fuzz_ply.cpp: UBSan reported the conversion of a list length of 8.9e68
+    // (a float count type, or an ascii token) to an integer.
+    const fs::path dir = tmp_dir("huge_list");
+    const std::string path = put_file(dir / "l.ply",
+                                      "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nproperty double y\n"
+                                      "property double z\nproperty list uchar int extra\nend_header\n0 0 0 8.9e68 1 2\n");
+    CHECK_THAT(error_of([&] { (void)pcp::read_point_cloud(path); }), Contains("invalid list length"));
+}
+
 TEST_CASE("io: truncated binary body", "[io]") {
     const fs::path dir = tmp_dir("err_truncated");
     for (PlyBytes::Kind kind : {PlyBytes::LE, PlyBytes::BE}) {

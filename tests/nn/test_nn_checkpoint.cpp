@@ -79,6 +79,25 @@ TEST_CASE("nn: network files round-trip networks, Adam state, step and RNG", "[n
     CHECK(load_net_file<double>(path_d).get("encoder").params == d.get("encoder").params);
 }
 
+TEST_CASE("nn: a record whose shape disagrees with its parameters is refused before any allocation", "[nn][fuzz]") {
+    // Found by tests/fuzz/fuzz_netfile.cpp: a damaged shape (checksum intact) asked for a network
+    // of 2^60 parameters before the parameter count was compared.
+    NetRecord<float> branch;
+    branch.name = "query_net";
+    branch.kind = NetKind::BranchMlp;
+    branch.shape = {3, 0, 1 << 30, 8, 1};
+    branch.params = Vec<float>::Zero(10);
+    CHECK_THROWS_WITH(to_branch_mlp(branch), Catch::Contains("query_net") && Catch::Contains("10 parameters stored"));
+    branch.shape = {3, 0, -4, 8, 1};
+    CHECK_THROWS_WITH(to_branch_mlp(branch), Catch::Contains("invalid shape"));
+    NetRecord<float> pointnet;
+    pointnet.name = "encoder";
+    pointnet.kind = NetKind::PointNet;
+    pointnet.shape = {2, 3, 1 << 30, 2, 1 << 30, 8};
+    pointnet.params = Vec<float>::Zero(10);
+    CHECK_THROWS_WITH(to_pointnet(pointnet), Catch::Contains("encoder") && Catch::Contains("10 parameters stored"));
+}
+
 TEST_CASE("nn: damaged network files are rejected with a clear error", "[nn]") {
     const std::string good = tmp_file("good.pcpn");
     save_net_file(good, sample_file());

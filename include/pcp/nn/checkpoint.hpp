@@ -76,6 +76,11 @@ void save_net_file(const std::string& path, const NetFile<S>& file);
 template <class S>
 NetFile<S> load_net_file(const std::string& path);
 
+/// Parses the bytes of a network file (`path` only names it in errors): the checks and results of
+/// load_net_file. Every malformed input is a pcp::Error (fuzzed: tests/fuzz/fuzz_netfile.cpp).
+template <class S>
+NetFile<S> parse_net_file(const std::string& path, const std::string& bytes);
+
 /// FNV-1a 64-bit hash (the file checksum).
 std::uint64_t fnv1a64(const void* data, std::size_t size,
                       std::uint64_t h = 0xcbf29ce484222325ull);
