@@ -245,7 +245,50 @@ double peak_rss_mib() {
     return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is KiB on Linux
 }
 
+double available_mib() {
+    double avail = -1;
+    {
+        std::ifstream in("/proc/meminfo");
+        std::string key, unit;
+        double kib = 0;
+        while (in >> key >> kib >> unit)
+            if (key == "MemAvailable:") {
+                avail = kib / 1024.0;
+                break;
+            }
+    }
+    // A container's own limit (cgroup v2), which /proc/meminfo does not show.
+    std::ifstream max_in("/sys/fs/cgroup/memory.max"), cur_in("/sys/fs/cgroup/memory.current");
+    double max_bytes = 0, cur_bytes = 0;
+    if ((max_in >> max_bytes) && (cur_in >> cur_bytes) && max_bytes > cur_bytes) {
+        const double cgroup = (max_bytes - cur_bytes) / 1048576.0;
+        avail = avail < 0 ? cgroup : std::min(avail, cgroup);
+    }
+    // PCP_MEMORY_LIMIT_MIB: a lower limit of the user's (and of the tests).
+    if (const char* env = std::getenv("PCP_MEMORY_LIMIT_MIB")) {
+        char* end = nullptr;
+        const double limit = std::strtod(env, &end);
+        if (end != env && *end == '\0' && limit > 0) avail = avail < 0 ? limit : std::min(avail, limit);
+    }
+    return avail;
+}
+
+void check_memory_for(const std::string& what, double need_mib, const std::string& advice) {
+    const double avail = available_mib();
+    if (avail > 0 && need_mib > avail) {
+        std::ostringstream msg;
+        msg << what << " needs about " << static_cast<long>(std::ceil(need_mib)) << " MiB of memory, " << static_cast<long>(avail)
+            << " MiB are available" << (advice.empty() ? "" : "; ") << advice;
+        throw pcp::Error(msg.str());
+    }
+}
+
 PointCloud load_checked_cloud(const std::string& path, Eigen::Index min_points) {
+    // Reading holds the whole file and then its values in double: refused up front where that
+    // cannot fit, rather than left to the OOM killer.
+    std::error_code ec;
+    const auto bytes = std::filesystem::file_size(path, ec);
+    if (!ec) check_memory_for(path + ": reading this file", 5.0 * static_cast<double>(bytes) / 1048576.0, "");
     PointCloud cloud = read_point_cloud(path);
     check_point_cloud(cloud.points, path, min_points);
     return cloud;

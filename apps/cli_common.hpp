@@ -95,6 +95,13 @@ bool interrupted();
 
 /// Peak resident memory of this process in MiB.
 double peak_rss_mib();
+/// The memory a run may use, in MiB: MemAvailable of /proc/meminfo, lowered to the cgroup's
+/// (memory.max - memory.current) in a container and to PCP_MEMORY_LIMIT_MIB when set; -1 where
+/// none is known.
+double available_mib();
+/// Throws pcp::Error "<what> needs about N MiB of memory, M MiB are available; <advice>" when
+/// need_mib exceeds what is available (nothing where that is unknown).
+void check_memory_for(const std::string& what, double need_mib, const std::string& advice);
 
 /// "1m23s"-style duration.
 std::string format_duration(double seconds);

@@ -16,6 +16,7 @@
 #include "pcp/cloud/regions.hpp"
 #include "pcp/cloud/shapes.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
@@ -295,6 +296,17 @@ int main(int argc, char** argv) {
             pcp::check_point_cloud(cloud.points, input, pcp::min_points_for(o.fit.sampling));
         } else {
             cloud = pcp::cli::load_checked_cloud(input, pcp::min_points_for(o.fit.sampling));
+        }
+        {
+            // Peak memory of a run (docs/BENCHMARKS.md, "Huge inputs"): about 250 MiB plus 2.7 KiB per
+            // fitted point (the query pools, trees and per-point arrays of the fit), plus about 100
+            // bytes per input point (the cloud, its subsample, the normals). Refused up front where
+            // that cannot fit, rather than left to the OOM killer.
+            const auto n = static_cast<double>(cloud.points.rows());
+            const double fitted = o.max_fit_points > 0 ? std::min(n, static_cast<double>(o.max_fit_points)) : n;
+            pcp::cli::check_memory_for(input + ": fitting " + std::to_string(static_cast<long>(fitted)) + " points",
+                                       250.0 + 2.7e-3 * fitted + 1e-4 * n,
+                                       "fit fewer with --max-points (each 100,000 points fitted take about 270 MiB)");
         }
         pcp::LocalPrior prior;
         if (!prior_path.empty()) prior = pcp::load_prior(prior_path);

@@ -4,7 +4,9 @@
 # then prints one Markdown row per target: executions, seconds, coverage (libFuzzer's cov / ft
 # counters), corpus size and findings. Findings (crash-*, oom-*, timeout-*, leak-*) stay in OUT.
 # Usage: scripts/fuzz.sh OUT [TARGET...]     (targets: ply text npy mesh_text netfile prior)
-# Environment: RUNS (default 10000000), PCP_BUILD_ROOT (default: the repository).
+# Environment: RUNS (default 10000000), MAX_LEN (largest input in bytes, default 4096: the readers'
+# branches are all reached by small files, and larger ones slow the executions tenfold),
+# PCP_BUILD_ROOT (default: the repository).
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 root=${PCP_BUILD_ROOT:-$here}
@@ -26,7 +28,7 @@ for t in "${targets[@]}"; do
     cp "$here/tests/fuzz/corpus/$t/"* "$out/$t/corpus/"
     start=$(date +%s)
     status=0
-    (cd "$out/$t" && "$root/build-fuzz/fuzz/fuzz_$t" -runs="$runs" -max_len=65536 -rss_limit_mb=2048 -timeout=10 \
+    (cd "$out/$t" && "$root/build-fuzz/fuzz/fuzz_$t" -runs="$runs" -max_len="${MAX_LEN:-4096}" -rss_limit_mb=2048 -timeout=10 \
         -print_final_stats=1 -artifact_prefix="$out/$t/" corpus >"$out/$t/fuzz.log" 2>&1) || status=$?
     secs=$(( $(date +%s) - start ))
     execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$out/$t/fuzz.log" | tail -1)

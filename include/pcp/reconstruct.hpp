@@ -86,6 +86,13 @@ struct ReconstructReport {
     std::int64_t fit_points = 0;     ///< points the fit used (fewer than input_points above ReconstructOptions::max_fit_points)
 };
 
+/// Thread safety: reconstruct may be called from several threads at once on different clouds (each
+/// thread's OpenMP thread count is its own: omp_set_num_threads in that thread); the meshes equal
+/// those of sequential calls (tests/e2e/e2e_concurrent.cpp, fp32). One exception: under bf16 with
+/// fp32_grid (the default there) the grid stage switches the process-wide GEMM precision, so a
+/// concurrent call's training then runs some steps in fp32 and is not reproducible; run such calls
+/// one at a time, or set fp32_grid = false.
+///
 /// Point cloud (input frame) -> mesh (input frame, outward faces). With `prior` null a self-prior
 /// is trained on the cloud first (options.self_prior), except in the no-prior ablation, which only
 /// takes the network sizes from options.self_prior. With `normals` non-null it also receives the

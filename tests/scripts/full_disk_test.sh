@@ -2,7 +2,7 @@
 # Full disks (issue 19): with a file-size limit (ulimit -f) every write of the tools fails part-way
 # - the mesh, the --normals file, a query-network checkpoint, a prior file, a training checkpoint -
 # and each failure must be a non-zero exit with one error line naming the file, no output file, no
-# temporary file left behind, and the input untouched.
+# temporary file left behind, and the input untouched. Also too little memory: refused up front.
 #
 # Usage: full_disk_test.sh BIN_DIR WORK_DIR
 set -uo pipefail
@@ -60,6 +60,15 @@ expect_full prior 256 out.pcpm "$bin/pcp_train" cloud.ply -o out.pcpm --preset f
 expect_full train_checkpoint 256 out2.pcpm.ckpt "$bin/pcp_train" cloud.ply -o out2.pcpm --preset fast --width 32 \
     --depth 2 --condition 32 --grid 2 --steps 20 --checkpoint-every 10 --threads 1 -q
 check "train_checkpoint: no prior file either" test ! -e out2.pcpm
+
+# Too little memory (PCP_MEMORY_LIMIT_MIB stands for a small machine): refused before any work,
+# naming the input and the memory it needs, nothing written.
+PCP_MEMORY_LIMIT_MIB=200 "${run[@]}" -o out4.ply >memory.log 2>&1
+check "memory: exit 1" test $? -eq 1
+check "memory: the error names the input and the need" grep -qE "error: cloud.ply: fitting 4000 points needs about [0-9]+ MiB of memory, 200 MiB are available" memory.log
+check "memory: no mesh" test ! -e out4.ply
+PCP_MEMORY_LIMIT_MIB=0.5 "${run[@]}" -o out4.ply >memory_read.log 2>&1
+check "memory: a file too large to read is refused before reading" grep -q "error: cloud.ply: reading this file needs about" memory_read.log
 
 # The same runs without the limit succeed (the failures above were the limit's).
 check "mesh written without the limit" "${run[@]}" -o out.ply --checkpoint-every 0
