@@ -43,6 +43,7 @@ fi
 
 cmake -S "$here" -B "$root/build-asan" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-O1 -DPCP_WERROR=ON \
       -DPCP_SANITIZE=ON -DPCP_BUILD_BENCH=OFF
-cmake --build "$root/build-asan" -j "$jobs"
+# Only what the unit tests run (their binary and the apps its CLI tests call).
+cmake --build "$root/build-asan" -j "$jobs" --target pcp_unit_tests
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   run_ctest "$root/build-asan" --output-on-failure -j "$jobs" -L unit

@@ -9,6 +9,12 @@
 #include <cmath>
 #include <cstring>
 
+namespace {
+/// Columns beyond x, y, z become named properties; more than this is not a point cloud (and a
+/// damaged shape of (0, 2^26) would otherwise name 67 million empty columns: found by fuzz_npy).
+constexpr std::int64_t kMaxNpyColumns = 1024;
+}  // namespace
+
 namespace pcp::io_detail {
 namespace {
 
@@ -96,9 +102,9 @@ PointCloud read_npy(const std::string& path, const std::string& data) {
     for (std::size_t k = 0; k < shape.size(); ++k)
         shape_text += (k ? ", " : "") + std::to_string(shape[k]);
     shape_text += shape.size() == 1 ? ",)" : ")";
-    PCP_CHECK(shape.size() == 2 && shape[1] >= 3,
+    PCP_CHECK(shape.size() == 2 && shape[1] >= 3 && shape[1] <= kMaxNpyColumns,
               path << ": unsupported .npy shape " << shape_text
-                   << " (a point cloud is (N, 3), (N, 6) with normals, or (N, k) with k >= 3)");
+                   << " (a point cloud is (N, 3), (N, 6) with normals, or (N, k) with 3 <= k <= " << kMaxNpyColumns << ")");
 
     const std::uint64_t rows = static_cast<std::uint64_t>(shape[0]);
     const std::uint64_t cols = static_cast<std::uint64_t>(shape[1]);

@@ -296,7 +296,10 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     if (normals) normals->resize(0, 3);
     PCP_CHECK(options.max_fit_points >= 0, "reconstruct: max_fit_points must be >= 0, got " << options.max_fit_points);
     r.input_points = points.rows();
-    // Huge inputs: the fit sees a seeded uniform subsample (ReconstructOptions::max_fit_points).
+    // Huge inputs: the fit sees a seeded uniform subsample (ReconstructOptions::max_fit_points);
+    // every input point is checked first (the normals are given for all of them).
+    if (options.max_fit_points > 0 && points.rows() > options.max_fit_points)
+        check_point_cloud(points, "input cloud", min_points_for(options.fit.sampling));
     const Points subsample = options.max_fit_points > 0 && points.rows() > options.max_fit_points
                                  ? random_subset(points, options.max_fit_points, options.fit.schedule.seed)
                                  : Points();

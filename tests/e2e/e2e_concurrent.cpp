@@ -16,6 +16,7 @@
 #include <array>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <thread>
 
 namespace {
@@ -88,6 +89,12 @@ TEST_CASE("reconstruct: an input above max_fit_points is fitted on a subsample a
     for (Eigen::Index i = 0; i < normals.rows(); ++i)
         if (normals.row(i).dot(cloud.points.row(i) - Eigen::RowVector3d(3.0, -1.0, 2.0)) > 0) ++outward;
     CHECK(outward >= 11800);
+    // Every input point is checked, also those the subsample leaves out.
+    {
+        pcp::Points bad = cloud.points;
+        bad(11999, 1) = std::numeric_limits<double>::quiet_NaN();
+        CHECK_THROWS_WITH(pcp::reconstruct(bad, nullptr, options), Catch::Contains("11999"));
+    }
     // The same cloud under the limit is fitted on every point.
     options.max_fit_points = 0;
     options.fit.steps = 1;

@@ -483,6 +483,23 @@ TEST_CASE("io: a PLY list length beyond any integer is an error, not an overflow
     CHECK_THAT(error_of([&] { (void)pcp::read_point_cloud(path); }), Contains("invalid list length"));
 }
 
+TEST_CASE("io: an .npy shape of millions of columns is refused before naming them", "[io][fuzz]") {
+    // Found by the fuzz smoke of fuzz_npy: shape (0, 67108864) passed the size check (no rows)
+    // and then 67 million column names were allocated.
+    const fs::path dir = tmp_dir("npy_columns");
+    std::string header = "{'descr': '<f8', 'fortran_order': False, 'shape': (0, 67108864), }";
+    while ((10 + header.size() + 1) % 64 != 0) header += ' ';
+    header += '\n';
+    std::string bytes = "\x93NUMPY";
+    bytes += '\x01';
+    bytes += '\x00';
+    bytes += static_cast<char>(header.size() & 0xff);
+    bytes += static_cast<char>(header.size() >> 8);
+    bytes += header;
+    const std::string path = put_file(dir / "c.npy", bytes);
+    CHECK_THAT(error_of([&] { (void)pcp::read_point_cloud(path); }), Contains("unsupported .npy shape") && Contains("k <= 1024"));
+}
+
 TEST_CASE("io: truncated binary body", "[io]") {
     const fs::path dir = tmp_dir("err_truncated");
     for (PlyBytes::Kind kind : {PlyBytes::LE, PlyBytes::BE}) {
