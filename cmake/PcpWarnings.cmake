@@ -38,7 +38,8 @@ endfunction()
 # Under PCP_SANITIZE the library is built as the build type says (scripts/test.sh: -O1), while the
 # apps and the tests -- thin code around library calls -- are built at -O0: an -O1 build with
 # ASan + UBSan compiles three times slower than -O3, and most of the sanitizer run's time was
-# compiling these. Their compute runs in the library, still at -O1.
+# compiling these. Their compute runs in the library, still at -O1 (except the gradient checks'
+# reference forward, tests/nn/test_nn_gradients.cpp, which probes fewer parameters there).
 function(pcp_sanitizer_light target)
   if(PCP_SANITIZE)
     target_compile_options(${target} PRIVATE -O0)

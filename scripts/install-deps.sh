@@ -7,8 +7,15 @@ packages=(build-essential cmake ninja-build pkg-config
           libopenblas-openmp-dev   # OpenBLAS: nn::gemm's default fp32 back end (PCP_BLAS=AUTO)
           libdnnl-dev              # oneDNN: the bf16 products of --precision bf16/auto (PCP_DNNL=AUTO)
           python3-dev pybind11-dev python3-numpy python3-pytest  # the Python module (python/) and its tests
-          clang-14 libclang-rt-14-dev libomp-14-dev  # libFuzzer targets of the readers (tests/fuzz/)
-          libopen3d-dev)           # Open3D: the screened-Poisson baseline of the benchmarks (bench/poisson_open3d.cpp)
+          clang-14 libclang-rt-14-dev libomp-14-dev)  # libFuzzer targets of the readers (tests/fuzz/)
+# With --bench also Open3D (about 550 MB of packages): the screened-Poisson baseline of the
+# benchmarks (bench/poisson_open3d.cpp, built when found); neither the tools nor the tests need it.
+for arg in "$@"; do
+  case $arg in
+    --bench) packages+=(libopen3d-dev) ;;
+    *) echo "install-deps: unknown option $arg (known: --bench)" >&2; exit 2 ;;
+  esac
+done
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -25,6 +25,10 @@ namespace {
 constexpr double kEps = 1e-6;   // central-difference step
 constexpr double kTol = 1e-6;   // relative tolerance
 constexpr double kAtol = 1e-10; // absolute floor: the FD's own round-off (loss ~0.1, eps 1e-6)
+// Parameters probed per network. The reference forward these checks difference runs in this file,
+// which the sanitizer build compiles at -O0 (tests/CMakeLists.txt): there a quarter of them, drawn
+// the same way, keeps the run within the CI budget; the Release build probes all 48.
+constexpr int kProbes = PCP_TEST_SANITIZED ? 12 : 48;
 
 MatrixXd randn(int r, int c, Rng& rng, double sd = 1.0) {
     MatrixXd m(r, c);
@@ -259,7 +263,7 @@ TEST_CASE("nn: parameter backward of F and Q matches finite differences", "[nn]"
             }
             return sum;
         };
-        const auto coords = nnref::sample_coords(net.layout, 40);
+        const auto coords = nnref::sample_coords(net.layout, PCP_TEST_SANITIZED ? 10 : 40);
         const auto r =
             nnref::check_gradient(net.params, grad, coords, loss, kEps, kTol, kAtol, "theta");
         require_check(r, int(coords.size()), "backward variant " + std::to_string(variant));
@@ -319,8 +323,8 @@ Stage1Result check_stage1(Stage1Case& c, bool drop_tangent) {
     CHECK(std::abs(L - nnref::stage1_loss(c.E, c.F, c.q, c.t, c.points, nullptr)) < 1e-12);
     Stage1Result r;
     auto loss = [&](nnref::Kinks* k) { return nnref::stage1_loss(c.E, c.F, c.q, c.t, c.points, k); };
-    const auto cf = nnref::sample_coords(c.F.layout, 48);
-    const auto ce = nnref::sample_coords(c.E.layout, 48);
+    const auto cf = nnref::sample_coords(c.F.layout, kProbes);
+    const auto ce = nnref::sample_coords(c.E.layout, kProbes);
     r.dec = nnref::check_gradient(c.F.params, dF, cf, loss, kEps, kTol, kAtol, "dL/dtheta_F");
     r.enc = nnref::check_gradient(c.E.params, dE, ce, loss, kEps, kTol, kAtol, "dL/dtheta_E");
     r.dec_total = int(cf.size());
@@ -379,7 +383,7 @@ TEST_CASE("nn: stage-2 gradients into Q through the frozen F match finite differ
         auto loss = [&](nnref::Kinks* k) { return nnref::stage2_loss(Q, F, qg, t, codes, k); };
         CHECK(std::abs(L0 - loss(nullptr)) < 1e-12);
         CHECK(std::abs(ws.loss(Q, F, qg, t, codes) - L0) < 1e-15);
-        const auto coords = nnref::sample_coords(Q.layout, 48);
+        const auto coords = nnref::sample_coords(Q.layout, kProbes);
         const auto r = nnref::check_gradient(Q.params, dQ, coords, loss, kEps, kTol, kAtol, "dL/dtheta_Q");
         require_check(r, int(coords.size()), "stage 2, K = " + std::to_string(K));
     }
@@ -515,7 +519,7 @@ TEST_CASE("nn: double backprop with a per-query condition matches finite differe
         CHECK((dF2 - 2 * dF).norm() < 1e-12 * dF.norm());
 
         auto loss_theta = [&](nnref::Kinks* k) { return per_query_loss(F, q, f, t, k); };
-        const auto cf = nnref::sample_coords(F.layout, 48);
+        const auto cf = nnref::sample_coords(F.layout, kProbes);
         const auto rF = nnref::check_gradient(F.params, dF, cf, loss_theta, kEps, kTol, kAtol, "dL/dtheta_F");
         require_check(rF, int(cf.size()), "per-query double backprop, H = " + std::to_string(H));
         // dL/df per query (the path into a predicted f').
@@ -602,11 +606,11 @@ TEST_CASE("nn: stage-2 ablation gradients (Q, F, free code) match finite differe
         const MatrixXd s = global_sdf_eval<double>(Q, F, qg, none, cond, var.cfg, ec);
         CHECK((s - ws.dec.out.leftCols(N)).cwiseAbs().maxCoeff() == 0.0);
 
-        const auto cq = nnref::sample_coords(Q.layout, 48);
+        const auto cq = nnref::sample_coords(Q.layout, kProbes);
         const auto rQ = nnref::check_gradient(Q.params, dQ, cq, loss, kEps, kTol, kAtol, "dL/dtheta_Q");
         require_check(rQ, int(cq.size()), std::string(var.name) + ": dL/dtheta_Q");
         if (var.cfg.train_decoder) {
-            const auto cf = nnref::sample_coords(F.layout, 48);
+            const auto cf = nnref::sample_coords(F.layout, kProbes);
             const auto rF = nnref::check_gradient(F.params, dF, cf, loss, kEps, kTol, kAtol, "dL/dtheta_F");
             require_check(rF, int(cf.size()), std::string(var.name) + ": dL/dtheta_F");
         }
@@ -675,11 +679,11 @@ TEST_CASE("nn: stage-2 gradients with sign-guided columns match finite differenc
         const double L0 = ws.loss_and_grad(Q, F, qg, t, none, none, dQ, dF, dc);
         CHECK(std::abs(L0 - loss(nullptr)) < 1e-12);
         CHECK(std::abs(ws.loss(Q, F, qg, t, none, none) - L0) < 1e-15);
-        const auto cq = nnref::sample_coords(Q.layout, 48);
+        const auto cq = nnref::sample_coords(Q.layout, kProbes);
         require_check(nnref::check_gradient(Q.params, dQ, cq, loss, kEps, kTol, kAtol, "dL/dtheta_Q"), int(cq.size()),
                       "guided: dL/dtheta_Q");
         if (train_decoder) {
-            const auto cf = nnref::sample_coords(F.layout, 48);
+            const auto cf = nnref::sample_coords(F.layout, kProbes);
             require_check(nnref::check_gradient(F.params, dF, cf, loss, kEps, kTol, kAtol, "dL/dtheta_F"), int(cf.size()),
                           "guided: dL/dtheta_F");
         }
