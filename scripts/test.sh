@@ -2,7 +2,8 @@
 # The README's test command: installs dependencies, builds Release with warnings as errors, runs
 # every CTest label (unit, e2e, realdata, install-consumer), runs the readers' libFuzzer targets
 # for a short smoke (clang, build-fuzz/), then builds again with
-# AddressSanitizer + UndefinedBehaviorSanitizer and runs the unit tests under them. After each
+# AddressSanitizer + UndefinedBehaviorSanitizer and runs the unit tests under them (without the
+# [heavy] and [cli] cases). After each
 # CTest run it prints which GEMM back ends and precisions that build ran (test cases of an absent
 # one are reported Skipped by CTest).
 # Build directories: build-test/, build-fuzz/ and build-asan/ (override with PCP_BUILD_ROOT).
@@ -11,8 +12,6 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 root=${PCP_BUILD_ROOT:-$here}
 jobs=${PCP_JOBS:-$(nproc)}
 
-# ctest in build directory $1 (further arguments passed on), then the back-end line of that build;
-# returns ctest's status.
 # Seconds per stage, printed at the end (and on failure) so the CI budget can be followed.
 stage_names=()
 stage_secs=()
@@ -34,6 +33,8 @@ print_stages() {
 }
 trap print_stages EXIT
 
+# ctest in build directory $1 (further arguments passed on), then the back-end line of that build;
+# returns ctest's status.
 run_ctest() {
   local dir=$1 status=0
   shift
@@ -69,7 +70,8 @@ fi
 
 cmake -S "$here" -B "$root/build-asan" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-O1 -DPCP_WERROR=ON \
       -DPCP_SANITIZE=ON -DPCP_BUILD_BENCH=OFF
-# Only what the unit tests run (their binary and the apps its CLI tests call).
+# Only what the unit tests run there (their binary; its [cli] cases, which run the apps, are left
+# out under the sanitizers: tests/CMakeLists.txt).
 cmake --build "$root/build-asan" -j "$jobs" --target pcp_unit_tests
 stage_done "sanitizer build"
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
