@@ -94,6 +94,8 @@ int main(int argc, char** argv) {
              cxxopts::value<long>()->default_value(std::to_string(d.max_fit_points)))
             ("resolution", "Marching-cubes cells along the longest axis", cxxopts::value<int>()->default_value(std::to_string(d.resolution)))
             ("iso", "Iso level", cxxopts::value<double>()->default_value(fmt(d.iso)))
+            ("thin-offset", "Keep thin parts whole: extract at iso + this (unit-box units, the cloud's longest edge 1), then move the mesh back by it (0: off)",
+             cxxopts::value<double>()->default_value(fmt(d.thin_offset)))
             ("margin", "Margin around the cloud's unit box", cxxopts::value<double>()->default_value(fmt(d.margin)))
             ("sign-repair", "on | off: flip regions of the fitted field whose sign the data does not support, on a coarse "
                             "grid (not in the paper; include/pcp/mesh/sign_repair.hpp)",
@@ -179,6 +181,7 @@ int main(int argc, char** argv) {
         if (o.max_fit_points != 0 && o.max_fit_points < pcp::min_points_for(o.fit.sampling))
             throw pcp::cli::UsageError("--max-points must be 0 or >= " + std::to_string(pcp::min_points_for(o.fit.sampling)));
         if (args.count("iso")) o.iso = args["iso"].as<double>();
+        if (args.count("thin-offset")) o.thin_offset = args["thin-offset"].as<double>();
         if (args.count("margin")) o.margin = args["margin"].as<double>();
         if (o.fit.steps < 1 || o.fit.queries_per_step < 1 || !(o.fit.schedule.learning_rate > 0) || o.fit.width < 1 ||
             o.fit.schedule.progress_every < 1 || o.fit.schedule.checkpoint_every < 0)

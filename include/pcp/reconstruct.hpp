@@ -31,6 +31,14 @@ struct ReconstructOptions {
     int resolution = 128;            ///< marching-cubes cells along the longest axis (paper: 128 / 512)
     double margin = 0.05;            ///< added around the cloud's unit box on every side (paper: 0.05)
     double iso = 0.0;                ///< the level set extracted: F_g = iso (every mesh stage sees F_g - iso)
+    /// Thin parts kept whole (not in the paper): every mesh stage sees F_g - iso - thin_offset,
+    /// and the extracted mesh is moved back by thin_offset along its normals before the surface
+    /// fit. Where a part is thinner than the field's error, F_g between its two sides stays just
+    /// above zero and its zero level set is torn into holes and specks; the level thin_offset
+    /// encloses it, and moving back puts its sides where the zero level runs elsewhere. Unit-box
+    /// units (the cloud's longest edge is 1). 0: off. Measured on every shared case
+    /// (docs/BENCHMARKS.md, "Thin parts kept whole").
+    double thin_offset = 0.002;
     SdfGridOptions grid;             ///< narrow-band settings
     WindingSignOptions winding_sign; ///< the sign away from the data by the winding number of the field-oriented points (not in the paper)
     SignRepairOptions sign_repair;   ///< flip regions whose sign the data does not support (not in the paper)

@@ -70,6 +70,20 @@ Points vertex_normals(const Mesh& mesh, const OneRing& ring) {
 
 }  // namespace
 
+Mesh offset_along_normals(const Mesh& mesh, double distance) {
+    PCP_CHECK(std::isfinite(distance), "offset along normals: the distance must be finite");
+    Mesh out = mesh;
+    if (distance == 0.0 || mesh.faces.rows() == 0) return out;
+    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+        for (int k = 0; k < 3; ++k)
+            PCP_CHECK(mesh.faces(f, k) >= 0 && mesh.faces(f, k) < mesh.vertices.rows(),
+                      "offset along normals: face " << f << " indexes vertex " << mesh.faces(f, k) << " of "
+                                                    << mesh.vertices.rows());
+    const OneRing ring(mesh);
+    out.vertices += distance * vertex_normals(mesh, ring);
+    return out;
+}
+
 Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const SurfaceFitOptions& options,
                            SurfaceFitStats* stats) {
     PCP_CHECK(options.support_k > 0 && options.move_k > 0, "surface fit: support_k and move_k must be > 0");

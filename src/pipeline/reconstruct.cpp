@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <vector>
 
@@ -193,8 +194,8 @@ Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<co
     const PointsF boundary = box_boundary_samples(spec.box, 12);
     Eigen::VectorXf bvals(boundary.rows());
     fitter.sdf(boundary, bvals);
-    const float iso = static_cast<float>(options.iso);
-    r.sign_flipped = (bvals.array() < iso).count() * 2 > bvals.size();
+    r.sign_flipped = (bvals.array() < static_cast<float>(options.iso)).count() * 2 > bvals.size();
+    const float iso = static_cast<float>(options.iso + options.thin_offset);  // the level the mesh stages see as 0
     const float sign = r.sign_flipped ? -1.0f : 1.0f;
     // The grid box is the cloud's box plus a margin, so its faces are outside the shape: the field
     // is clamped to be positive there, which closes any sheet that would leave the box.
@@ -252,7 +253,8 @@ Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<co
     r.seconds_grid = seconds_since(t0);
 
     t0 = std::chrono::steady_clock::now();
-    const Mesh mc_mesh = marching_cubes(grid);
+    // Extracted at F_g = iso + thin_offset, then moved back by thin_offset (ReconstructOptions::thin_offset).
+    const Mesh mc_mesh = offset_along_normals(marching_cubes(grid), -options.thin_offset);
     PCP_CHECK(mc_mesh.faces.rows() > 0, "reconstruction produced an empty mesh: the fitted SDF has no zero crossing "
                                         "in the grid (train longer, or check the input)");
     SurfaceFitOptions fit_options = options.surface_fit;
@@ -295,6 +297,8 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     r = ReconstructReport{};
     if (normals) normals->resize(0, 3);
     PCP_CHECK(options.max_fit_points >= 0, "reconstruct: max_fit_points must be >= 0, got " << options.max_fit_points);
+    PCP_CHECK(std::isfinite(options.thin_offset) && options.thin_offset >= 0 && options.thin_offset < 0.1,
+              "reconstruct: thin_offset must be in [0, 0.1) (unit-box units), got " << options.thin_offset);
     r.input_points = points.rows();
     // Huge inputs: the fit sees a seeded uniform subsample (ReconstructOptions::max_fit_points);
     // every input point is checked first (the normals are given for all of them).

@@ -126,3 +126,43 @@ TEST_CASE("surface fit: disabled is the identity, bad options throw", "[surface_
     broken.faces(0, 0) = static_cast<std::int32_t>(mesh.vertices.rows());
     CHECK_THROWS_AS(pcp::fit_surface_to_points(broken, tree, {}), pcp::Error);
 }
+
+TEST_CASE("offset along normals: a plate thinner than a cell is kept whole by extracting above zero and moving back",
+          "[surface_fit]") {
+    // A plate of half-thickness h = 0.002 on a grid of 0.0148 cells whose samples nearest to it lie
+    // 0.0074 away on either side: every sample is outside, and the zero level set has no face
+    // (the thin part is lost, as a fitted field loses the parts thinner than its error). The level
+    // d = 0.01 encloses it; moved back by d along the normals, its broad faces lie at |z| = h.
+    const double h = 0.002, d = 0.01;
+    const ScalarSdf plate = [&](const Eigen::Vector3d& p) {  // axis-aligned box, half sizes 0.3, 0.3, h
+        const Eigen::Vector3d q = p.cwiseAbs() - Eigen::Vector3d(0.3, 0.3, h);
+        return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+    };
+    const ScalarSdf raised = [&](const Eigen::Vector3d& p) { return plate(p) - d; };
+    pcp::SdfGridOptions opts;
+    opts.band = pcp::NarrowBand::Dense;
+    const pcp::GridSpec grid = cube_grid(81);
+    CHECK(pcp::marching_cubes(pcp::evaluate_sdf_grid(batch(plate), grid, opts)).faces.rows() == 0);
+    const pcp::Mesh lifted = pcp::marching_cubes(pcp::evaluate_sdf_grid(batch(raised), grid, opts));
+    REQUIRE(lifted.faces.rows() > 0);
+    const pcp::Mesh back = pcp::offset_along_normals(lifted, -d);
+    CHECK(back.faces == lifted.faces);
+    const MeshTopology topo = topology(back);
+    CHECK(topo.closed_manifold_oriented());
+    CHECK(topo.euler() == 2);  // one closed piece of genus 0
+    double worst_lifted = 0, worst_back = 0;
+    for (Eigen::Index v = 0; v < back.vertices.rows(); ++v) {
+        const Eigen::RowVector3d p = back.vertices.row(v), q = lifted.vertices.row(v);
+        if (std::abs(p.x()) > 0.25 || std::abs(p.y()) > 0.25) continue;  // the broad faces, away from the rim
+        worst_lifted = std::max(worst_lifted, std::abs(std::abs(q.z()) - (h + d)));
+        worst_back = std::max(worst_back, std::abs(std::abs(p.z()) - h));
+    }
+    INFO("broad faces: lifted |z| - (h + d) up to " << worst_lifted << ", moved back |z| - h up to " << worst_back);
+    CHECK(worst_lifted < 1e-6);
+    CHECK(worst_back < 1e-6);
+    // A zero distance is the identity; a face index out of range is refused.
+    CHECK(pcp::offset_along_normals(lifted, 0.0).vertices == lifted.vertices);
+    pcp::Mesh broken = lifted;
+    broken.faces(0, 0) = static_cast<std::int32_t>(broken.vertices.rows());
+    CHECK_THROWS_AS(pcp::offset_along_normals(broken, -d), pcp::Error);
+}

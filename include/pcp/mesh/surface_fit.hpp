@@ -63,4 +63,9 @@ struct SurfaceFitStats {
 Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const SurfaceFitOptions& options = {},
                            SurfaceFitStats* stats = nullptr);
 
+/// Every vertex moved by `distance` along its unit normal (area weighted, averaged over its
+/// one-ring, as the fit's; positive: outward). Faces unchanged. pcp::reconstruct uses it to
+/// bring a mesh extracted at the level F = d back by d (ReconstructOptions::thin_offset).
+Mesh offset_along_normals(const Mesh& mesh, double distance);
+
 }  // namespace pcp
