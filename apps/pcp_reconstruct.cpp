@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
              cxxopts::value<long>()->default_value(std::to_string(d.max_fit_points)))
             ("resolution", "Marching-cubes cells along the longest axis", cxxopts::value<int>()->default_value(std::to_string(d.resolution)))
             ("iso", "Iso level", cxxopts::value<double>()->default_value(fmt(d.iso)))
-            ("thin-offset", "Keep thin parts whole: extract at iso + this (unit-box units, the cloud's longest edge 1), then move the mesh back by it (0: off)",
+            ("thin-offset", "Keep thin parts whole: near the data, extract at iso + this (unit-box units, the cloud's longest edge 1), then move the mesh back by it (0: off)",
              cxxopts::value<double>()->default_value(fmt(d.thin_offset)))
             ("margin", "Margin around the cloud's unit box", cxxopts::value<double>()->default_value(fmt(d.margin)))
             ("sign-repair", "on | off: flip regions of the fitted field whose sign the data does not support, on a coarse "

@@ -31,17 +31,17 @@ struct ReconstructOptions {
     int resolution = 128;            ///< marching-cubes cells along the longest axis (paper: 128 / 512)
     double margin = 0.05;            ///< added around the cloud's unit box on every side (paper: 0.05)
     double iso = 0.0;                ///< the level set extracted: F_g = iso (every mesh stage sees F_g - iso)
-    /// Thin parts kept whole (not in the paper): every mesh stage sees F_g - iso - thin_offset,
-    /// and the extracted mesh is moved back by thin_offset along its normals before the surface
-    /// fit. Where a part is thinner than the field's error, F_g between its two sides stays just
-    /// above zero and its zero level set is torn into holes and specks; the level thin_offset
-    /// encloses it, and moving back puts its sides where the zero level runs elsewhere. Unit-box
-    /// units (the cloud's longest edge is 1). 0: off. Measured on every shared case
-    /// (docs/BENCHMARKS.md, "Thin parts kept whole": 0.002 helps 10 of 13). Off by default: where
-    /// the field is weakly trained it hovers just above zero away from the data too, and the
-    /// raised level grows a sheet there (the e2e subsample test's sphere); to be limited to the
-    /// data's neighbourhood first.
-    double thin_offset = 0.0;
+    /// Thin parts kept whole (not in the paper): near the data, every mesh stage sees
+    /// F_g - iso - thin_offset, and each extracted vertex is moved back along its normal by the
+    /// level it was raised by, before the surface fit. Where a part is thinner than the field's
+    /// error, F_g between its two sides stays just above zero and its zero level set is torn into
+    /// holes and specks; the raised level encloses it, and moving back puts its sides where the
+    /// zero level runs elsewhere. The level is raised by thin_offset within the surface fit's
+    /// support radius (surface_fit.support_k x the sampling scale) of an input point and fades to
+    /// nothing at twice that radius, so a field hovering just above zero away from the data grows
+    /// no sheet there. Unit-box units (the cloud's longest edge is 1); 0: off. Measured on every
+    /// shared case (docs/BENCHMARKS.md, "Thin parts kept whole").
+    double thin_offset = 0.002;
     SdfGridOptions grid;             ///< narrow-band settings
     WindingSignOptions winding_sign; ///< the sign away from the data by the winding number of the field-oriented points (not in the paper)
     SignRepairOptions sign_repair;   ///< flip regions whose sign the data does not support (not in the paper)

@@ -72,15 +72,23 @@ Points vertex_normals(const Mesh& mesh, const OneRing& ring) {
 
 Mesh offset_along_normals(const Mesh& mesh, double distance) {
     PCP_CHECK(std::isfinite(distance), "offset along normals: the distance must be finite");
+    if (distance == 0.0) return mesh;
+    return offset_along_normals(mesh, Eigen::VectorXd::Constant(mesh.vertices.rows(), distance));
+}
+
+Mesh offset_along_normals(const Mesh& mesh, const Eigen::VectorXd& distances) {
+    PCP_CHECK(distances.size() == mesh.vertices.rows(), "offset along normals: " << distances.size()
+                                                        << " distances for " << mesh.vertices.rows() << " vertices");
+    PCP_CHECK(distances.allFinite(), "offset along normals: the distances must be finite");
     Mesh out = mesh;
-    if (distance == 0.0 || mesh.faces.rows() == 0) return out;
+    if (mesh.faces.rows() == 0) return out;
     for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
         for (int k = 0; k < 3; ++k)
             PCP_CHECK(mesh.faces(f, k) >= 0 && mesh.faces(f, k) < mesh.vertices.rows(),
                       "offset along normals: face " << f << " indexes vertex " << mesh.faces(f, k) << " of "
                                                     << mesh.vertices.rows());
     const OneRing ring(mesh);
-    out.vertices += distance * vertex_normals(mesh, ring);
+    out.vertices.array() += vertex_normals(mesh, ring).array().colwise() * distances.array();
     return out;
 }
 

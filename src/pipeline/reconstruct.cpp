@@ -195,7 +195,18 @@ Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<co
     Eigen::VectorXf bvals(boundary.rows());
     fitter.sdf(boundary, bvals);
     r.sign_flipped = (bvals.array() < static_cast<float>(options.iso)).count() * 2 > bvals.size();
-    const float iso = static_cast<float>(options.iso + options.thin_offset);  // the level the mesh stages see as 0
+    const float iso = static_cast<float>(options.iso);
+    // The thin offset (ReconstructOptions::thin_offset) raises the level only near the data: by
+    // thin_offset within the surface fit's support radius of an input point, fading to nothing at
+    // twice that radius, so that a field hovering just above zero away from the data grows no sheet.
+    const float thin = static_cast<float>(options.thin_offset);
+    const float near_r = thin > 0 ? static_cast<float>(options.surface_fit.support_k * sampling_scale(cloud.tree())) : 0.0f;
+    const auto thin_level = [&](const Eigen::Vector3f& p) -> float {
+        float d = 0;
+        cloud.tree().nearest_point(p, &d);
+        if (d <= near_r) return thin;
+        return d >= 2 * near_r ? 0.0f : thin * (2.0f - d / near_r);
+    };
     const float sign = r.sign_flipped ? -1.0f : 1.0f;
     // The grid box is the cloud's box plus a margin, so its faces are outside the shape: the field
     // is clamped to be positive there, which closes any sheet that would leave the box.
@@ -206,6 +217,8 @@ Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<co
         fitter.sdf(q, v);
         if (sign < 0) v = -v;
         if (iso != 0.0f) v.array() -= iso;
+        if (thin > 0)
+            for (Eigen::Index i = 0; i < q.rows(); ++i) v(i) -= thin_level(q.row(i).transpose());
         for (Eigen::Index i = 0; i < q.rows(); ++i) {
             const Eigen::Array3f p = q.row(i).transpose().array();
             if (((p - lo).abs() <= tol).any() || ((p - hi).abs() <= tol).any()) v(i) = std::max(v(i), outside);
@@ -253,8 +266,14 @@ Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<co
     r.seconds_grid = seconds_since(t0);
 
     t0 = std::chrono::steady_clock::now();
-    // Extracted at F_g = iso + thin_offset, then moved back by thin_offset (ReconstructOptions::thin_offset).
-    const Mesh mc_mesh = offset_along_normals(marching_cubes(grid), -options.thin_offset);
+    // Extracted at F_g = iso + the thin level, then moved back by it (ReconstructOptions::thin_offset).
+    Mesh mc_mesh = marching_cubes(grid);
+    if (thin > 0) {  // back by the level each vertex was raised by
+        Eigen::VectorXd back(mc_mesh.vertices.rows());
+        for (Eigen::Index i = 0; i < back.size(); ++i)
+            back(i) = -static_cast<double>(thin_level(mc_mesh.vertices.row(i).transpose().cast<float>()));
+        mc_mesh = offset_along_normals(mc_mesh, back);
+    }
     PCP_CHECK(mc_mesh.faces.rows() > 0, "reconstruction produced an empty mesh: the fitted SDF has no zero crossing "
                                         "in the grid (train longer, or check the input)");
     SurfaceFitOptions fit_options = options.surface_fit;

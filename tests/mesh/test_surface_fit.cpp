@@ -8,6 +8,7 @@
 #include "pcp/mesh/mesh_check.hpp"
 #include "pcp/mesh/surface_fit.hpp"
 
+#include <limits>
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -160,6 +161,20 @@ TEST_CASE("offset along normals: a plate thinner than a cell is kept whole by ex
     INFO("broad faces: lifted |z| - (h + d) up to " << worst_lifted << ", moved back |z| - h up to " << worst_back);
     CHECK(worst_lifted < 1e-6);
     CHECK(worst_back < 1e-6);
+    // Per vertex: the constant vector moves as the scalar; vertices given 0 stay where they are,
+    // the others move by their own distance; a wrong count or a non-finite distance is refused.
+    CHECK(pcp::offset_along_normals(lifted, Eigen::VectorXd::Constant(lifted.vertices.rows(), -d)).vertices
+              .isApprox(back.vertices, 1e-12));
+    Eigen::VectorXd some = Eigen::VectorXd::Zero(lifted.vertices.rows());
+    for (Eigen::Index v = 0; v < some.size(); v += 2) some(v) = -d;
+    const pcp::Mesh half = pcp::offset_along_normals(lifted, some);
+    for (Eigen::Index v = 0; v < some.size(); ++v) {
+        const pcp::Mesh& expected = (v % 2 == 0) ? back : lifted;
+        CHECK((half.vertices.row(v) - expected.vertices.row(v)).norm() < 1e-12);
+    }
+    CHECK_THROWS_AS(pcp::offset_along_normals(lifted, Eigen::VectorXd::Zero(lifted.vertices.rows() + 1)), pcp::Error);
+    some(1) = std::numeric_limits<double>::quiet_NaN();
+    CHECK_THROWS_AS(pcp::offset_along_normals(lifted, some), pcp::Error);
     // A zero distance is the identity; a face index out of range is refused.
     CHECK(pcp::offset_along_normals(lifted, 0.0).vertices == lifted.vertices);
     pcp::Mesh broken = lifted;

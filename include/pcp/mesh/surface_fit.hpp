@@ -68,4 +68,7 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
 /// bring a mesh extracted at the level F = d back by d (ReconstructOptions::thin_offset).
 Mesh offset_along_normals(const Mesh& mesh, double distance);
 
+/// The same with a distance per vertex (`distances`: one per vertex, finite).
+Mesh offset_along_normals(const Mesh& mesh, const Eigen::VectorXd& distances);
+
 }  // namespace pcp
