@@ -41,20 +41,31 @@ QuerySet sample_queries(const KdTree& tree, const SamplingOptions& options, std:
     set.sigma = point_sigmas(tree, options);
     const PointsF& pts = tree.points();
     const Eigen::Index n = pts.rows();
-    const Eigen::Index per = options.queries_per_point;
-    const Eigen::Index near = n * per;
-    const auto uniform = static_cast<Eigen::Index>(std::llround(static_cast<double>(options.uniform_fraction) * static_cast<double>(near)));
     PCP_CHECK(options.uniform_fraction >= 0.0f && options.uniform_margin >= 0.0f,
               "query sampling: uniform_fraction and uniform_margin must be >= 0");
+    PCP_CHECK(options.max_queries >= 0, "query sampling: max_queries must be >= 0");
+    Eigen::Index near = n * options.queries_per_point;
+    auto uniform = static_cast<Eigen::Index>(std::llround(static_cast<double>(options.uniform_fraction) * static_cast<double>(near)));
+    if (options.max_queries > 0 && near + uniform > options.max_queries) {  // the same ratio, fewer of both
+        const double scale = static_cast<double>(options.max_queries) / static_cast<double>(near + uniform);
+        near = std::max<Eigen::Index>(1, static_cast<Eigen::Index>(std::floor(static_cast<double>(near) * scale)));
+        uniform = std::max<Eigen::Index>(0, static_cast<Eigen::Index>(options.max_queries) - near);
+    }
     const Eigen::Index m = near + uniform;
     set.queries.resize(m, 3);
     const auto n_spreads = static_cast<Eigen::Index>(options.spreads.size());
+    // Point i's queries are rows first(i) .. first(i + 1) - 1: queries_per_point each without a
+    // cap, an even share of `near` under one.
+    const auto first = [&](Eigen::Index i) {
+        return static_cast<Eigen::Index>(static_cast<std::int64_t>(i) * static_cast<std::int64_t>(near) / static_cast<std::int64_t>(n));
+    };
 #pragma omp parallel for schedule(static, 256)
     for (Eigen::Index i = 0; i < n; ++i) {
         Rng rng(seed, static_cast<std::uint64_t>(i));
-        for (Eigen::Index j = 0; j < per; ++j) {
+        const Eigen::Index begin = first(i), count = first(i + 1) - begin;
+        for (Eigen::Index j = 0; j < count; ++j) {
             const float sd = options.spreads[static_cast<std::size_t>(j % n_spreads)] * set.sigma(i);
-            const Eigen::Index row = i * per + j;
+            const Eigen::Index row = begin + j;
             for (int c = 0; c < 3; ++c)
                 set.queries(row, c) = pts(i, c) + sd * static_cast<float>(rng.normal());
         }

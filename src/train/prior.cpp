@@ -220,6 +220,7 @@ void PriorTrainer::Impl::prepare(const std::vector<const PreparedCloud*>& clouds
                                                       << " points for the query spread (min_points)");
     std::ostringstream fp;
     fp << summarize(options);
+    std::vector<std::vector<Region>> all_regions;
     for (std::size_t c = 0; c < clouds.size(); ++c) {
         const PreparedCloud& cloud = *clouds[c];
         PCP_CHECK(cloud.size() >= min_points_for(options.sampling),
@@ -227,12 +228,29 @@ void PriorTrainer::Impl::prepare(const std::vector<const PreparedCloud*>& clouds
         names.push_back(cloud.name());
         fp << " | " << cloud.name() << " (" << cloud.size() << " points, data " << std::hex << cloud.input_hash() << std::dec << ")";
         const std::vector<Region> regions = split_into_regions(cloud.unit(), options.regions);
+        all_regions.push_back(regions);
+    }
+    std::size_t region_count = 0;
+    for (const auto& regions : all_regions) region_count += regions.size();
+    PCP_CHECK(region_count > 0, "prior training: no region of any input has at least " << options.regions.min_points
+                                  << " points (a " << options.regions.grid << "^3 grid); use a coarser grid or denser clouds");
+    // Each region's pool holds at most the queries its steps draw (SamplingOptions::max_queries):
+    // the steps visit the regions in turn, so each region gets ceil(total / regions) of them.
+    const std::int64_t total_steps = options.max_steps > 0 ? options.max_steps
+                                                           : static_cast<std::int64_t>(options.epochs) * static_cast<std::int64_t>(region_count);
+    SamplingOptions sampling = options.sampling;
+    const std::int64_t draws = (total_steps + static_cast<std::int64_t>(region_count) - 1) / static_cast<std::int64_t>(region_count) *
+                               options.queries_per_step;
+    sampling.max_queries = sampling.max_queries > 0 ? std::min(sampling.max_queries, draws) : draws;
+    for (std::size_t c = 0; c < clouds.size(); ++c) {
+        const PreparedCloud& cloud = *clouds[c];
+        const std::vector<Region>& regions = all_regions[c];
         for (std::size_t r = 0; r < regions.size(); ++r) {
             // Each region's own points in region coordinates: sigma_p and the targets come from
             // the region alone (paper section 3), so each region has its own small tree.
             const KdTree tree(region_points(cloud.unit(), regions[r]));
             const std::uint64_t stream_seed = sched.seed * 0x9E3779B97F4A7C15ull + (c << 20) + r;
-            const QuerySet set = sample_queries(tree, options.sampling, stream_seed);
+            const QuerySet set = sample_queries(tree, sampling, stream_seed);
             RegionPool pool;
             pool.cloud = c;
             pool.queries = set.queries.transpose();
@@ -241,8 +259,6 @@ void PriorTrainer::Impl::prepare(const std::vector<const PreparedCloud*>& clouds
         }
     }
     checkpoint_id.fingerprint = fp.str();
-    PCP_CHECK(!pools.empty(), "prior training: no region of any input has at least " << options.regions.min_points
-                                  << " points (a " << options.regions.grid << "^3 grid); use a coarser grid or denser clouds");
     const auto r = static_cast<std::int64_t>(pools.size());
     total = options.max_steps > 0 ? options.max_steps : static_cast<std::int64_t>(options.epochs) * r;
     recent = detail::LossWindow(static_cast<std::size_t>(std::min<std::int64_t>(r, 100)));
@@ -259,6 +275,11 @@ PriorTrainer::~PriorTrainer() = default;
 std::int64_t PriorTrainer::steps_done() const { return impl_->trainer->steps; }
 std::int64_t PriorTrainer::total_steps() const { return impl_->total; }
 std::size_t PriorTrainer::num_regions() const { return impl_->pools.size(); }
+std::int64_t PriorTrainer::pool_size() const {
+    std::int64_t n = 0;
+    for (const RegionPool& pool : impl_->pools) n += pool.queries.cols();
+    return n;
+}
 
 double PriorTrainer::recent_loss() const { return impl_->recent.mean(); }
 

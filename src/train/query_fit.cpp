@@ -149,7 +149,11 @@ QueryNetFitter::QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& pri
     PCP_CHECK(cloud.size() >= min_points_for(options.sampling),
               cloud.name() << ": " << cloud.size() << " points; the query spread needs at least " << min_points_for(options.sampling));
     {
-        const QuerySet set = sample_queries(cloud.tree(), options.sampling, sched.seed);
+        // The pool holds at most the queries the fit draws (SamplingOptions::max_queries).
+        SamplingOptions sampling = options.sampling;
+        const std::int64_t draws = std::max<std::int64_t>(options.steps, 1) * options.queries_per_step;
+        sampling.max_queries = sampling.max_queries > 0 ? std::min(sampling.max_queries, draws) : draws;
+        const QuerySet set = sample_queries(cloud.tree(), sampling, sched.seed);
         m.queries = set.queries.transpose();
         m.targets = set.targets.transpose();
     }
@@ -217,6 +221,7 @@ std::int64_t QueryNetFitter::steps_done() const { return impl_->trainer->steps; 
 const PreparedCloud& QueryNetFitter::cloud() const { return *impl_->cloud; }
 double QueryNetFitter::recent_loss() const { return impl_->recent.mean(); }
 int QueryNetFitter::guided_per_step() const { return impl_->guided; }
+std::int64_t QueryNetFitter::pool_size() const { return impl_->queries.cols(); }
 
 double QueryNetFitter::step() {
     Impl& m = *impl_;

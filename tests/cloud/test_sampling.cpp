@@ -3,6 +3,7 @@
 #include "pcp/core/rng.hpp"
 #include "pcp/cloud/sampling.hpp"
 #include "pcp/cloud/shapes.hpp"
+#include "pcp/core/error.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -111,4 +112,50 @@ TEST_CASE("sampling: uniform queries fill the grown box, keep nearest targets an
     CHECK(pcp::sample_queries(tree, opts, 4).queries == set.queries);
     opts.uniform_fraction = -0.1f;
     CHECK_THROWS_WITH(pcp::sample_queries(tree, opts, 4), Catch::Contains("uniform_fraction"));
+}
+
+TEST_CASE("sampling: max_queries caps the pool, keeps the uniform ratio and spreads the rest evenly over the points",
+          "[sampling]") {
+    const pcp::PointCloud sphere = pcp::sample_sphere(3000, 0.4, Eigen::Vector3d::Zero(), 11);
+    const pcp::KdTree tree(sphere.points.cast<float>());
+    pcp::SamplingOptions opts;
+    opts.queries_per_point = 40;
+    opts.uniform_fraction = 0.25f;
+    const pcp::QuerySet full = pcp::sample_queries(tree, opts, 5);
+    REQUIRE(full.queries.rows() == 3000 * 40 + 30000);
+    // A cap above the pool changes nothing.
+    opts.max_queries = full.queries.rows();
+    CHECK(pcp::sample_queries(tree, opts, 5).queries == full.queries);
+    // A cap below it: exactly max_queries, the near / uniform ratio kept (4 : 1), every point's
+    // share floor or ceil of 8000 / 3000, each near query drawn around its own point, the first
+    // queries of each point's stream the same as without the cap.
+    opts.max_queries = 10000;
+    const pcp::QuerySet capped = pcp::sample_queries(tree, opts, 5);
+    REQUIRE(capped.queries.rows() == 10000);
+    REQUIRE(capped.targets.rows() == 10000);
+    const Eigen::Index near = 8000;
+    Eigen::Index row = 0;
+    for (Eigen::Index i = 0; i < 3000; ++i) {
+        const Eigen::Index count = (i + 1) * near / 3000 - i * near / 3000;
+        REQUIRE((count == 2 || count == 3));
+        for (Eigen::Index j = 0; j < count; ++j, ++row) {
+            CHECK(capped.queries.row(row) == full.queries.row(i * 40 + j));
+            CHECK((capped.queries.row(row) - tree.points().row(i)).norm() < 6 * opts.spreads[0] * capped.sigma(i));
+        }
+    }
+    CHECK(row == near);
+    // The uniform queries lie in the grown box and keep nearest targets.
+    const Eigen::RowVector3f lo = tree.points().colwise().minCoeff(), hi = tree.points().colwise().maxCoeff();
+    const float grow = opts.uniform_margin * (hi - lo).maxCoeff() + 1e-6f;
+    for (Eigen::Index r = near; r < capped.queries.rows(); ++r) {
+        CHECK((capped.queries.row(r).array() >= lo.array() - grow).all());
+        CHECK((capped.queries.row(r).array() <= hi.array() + grow).all());
+    }
+    const pcp::IndexVector ids = tree.nearest(capped.queries);
+    CHECK(ids == capped.target_ids);
+    // A cap below the number of points: some points get none, the total is still the cap.
+    opts.max_queries = 1000;
+    CHECK(pcp::sample_queries(tree, opts, 5).queries.rows() == 1000);
+    opts.max_queries = -1;
+    CHECK_THROWS_AS(pcp::sample_queries(tree, opts, 5), pcp::Error);
 }

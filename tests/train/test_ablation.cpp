@@ -195,3 +195,12 @@ TEST_CASE("sign guide: guided queries join the batch and push the field to the l
     b.checkpoint(dir + "/guided.ckpt");
     CHECK_THROWS_WITH(a.resume(dir + "/guided.ckpt"), Catch::Contains("other inputs or settings"));
 }
+
+TEST_CASE("query fit: the query pool holds at most the queries the steps draw", "[ablation]") {
+    // 1500 points x 10 queries: a pool of 15000 while the steps draw more, of steps x 200 below.
+    CHECK(pcp::QueryNetFitter(torus(), toy_prior(), toy_fit(QueryAblation::None, 100)).pool_size() == 15000);
+    CHECK(pcp::QueryNetFitter(torus(), toy_prior(), toy_fit(QueryAblation::None, 40)).pool_size() == 8000);
+    pcp::QueryFitOptions o = toy_fit(QueryAblation::None, 40);
+    o.sampling.max_queries = 5000;  // a smaller cap of the caller's wins
+    CHECK(pcp::QueryNetFitter(torus(), toy_prior(), o).pool_size() == 5000);
+}

@@ -179,3 +179,15 @@ TEST_CASE("prior: bad inputs and bad prior files are named", "[prior]") {
     CHECK_THROWS_WITH(pcp::load_prior(missing), Catch::Contains("missing.pcpm"));
     CHECK_NOTHROW(pcp::load_prior(path));
 }
+
+TEST_CASE("prior: each region's query pool holds at most the queries its steps draw", "[prior]") {
+    pcp::PriorTrainOptions o = tiny_options();
+    o.regions.grid = 1;  // one region per cloud: 1500 points x 8 queries = 12000 each
+    o.max_steps = 200;   // 100 steps per region x 200 queries: more than the pool
+    CHECK(pcp::PriorTrainer(tiny_clouds(), o).pool_size() == 2 * 12000);
+    o.max_steps = 30;    // 15 steps per region x 200 = 3000 per region
+    CHECK(pcp::PriorTrainer(tiny_clouds(), o).pool_size() == 2 * 3000);
+    o.max_steps = 0;
+    o.epochs = 4;        // 4 steps per region x 200
+    CHECK(pcp::PriorTrainer(tiny_clouds(), o).pool_size() == 2 * 800);
+}

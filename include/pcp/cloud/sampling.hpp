@@ -31,14 +31,23 @@ struct SamplingOptions {
     /// the data (floating blobs, shells inside thick parts). Not in the paper: a libpcp option.
     float uniform_fraction = 0.0f;
     float uniform_margin = 0.05f;
+    /// At most this many queries in all (0: no cap). A training stage draws a fixed number of
+    /// queries from its pool, so a pool larger than that costs memory and buys nothing: the
+    /// trainers cap it at their draws (QueryNetFitter: steps x queries_per_step; the prior: its
+    /// draws per region). Under the cap the near-surface and uniform queries keep their ratio, and
+    /// the near-surface ones are spread evenly over the points (point i gets
+    /// floor((i + 1) K / N) - floor(i K / N) of the K).
+    std::int64_t max_queries = 0;
 };
 
 /// The minimum number of points sample_queries needs with these options.
 Eigen::Index min_points_for(const SamplingOptions& options);
 
 struct QuerySet {
-    PointsF queries;       ///< M x 3, M = N * queries_per_point + U; rows i*qpp .. i*qpp+qpp-1 belong to
-                           ///< point i, the last U = round(uniform_fraction * N * qpp) are uniform
+    PointsF queries;       ///< M x 3, M = K + U with K = N * queries_per_point near-surface queries, point
+                           ///< i's in rows i*qpp .. i*qpp+qpp-1, and the last U = round(uniform_fraction * K)
+                           ///< uniform (under SamplingOptions::max_queries, K and U shrink alike and
+                           ///< point i's rows are floor(i K / N) .. floor((i + 1) K / N) - 1)
     PointsF targets;       ///< M x 3, nearest cloud point of each query
     IndexVector target_ids;  ///< M, index of the target in the cloud
     Eigen::VectorXf sigma;   ///< N, sigma_p of each cloud point

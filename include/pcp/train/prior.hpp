@@ -134,6 +134,8 @@ public:
     std::int64_t steps_done() const;
     std::int64_t total_steps() const;
     std::size_t num_regions() const;
+    /// Queries in all region pools: each holds at most the queries its steps draw (SamplingOptions::max_queries).
+    std::int64_t pool_size() const;
     double recent_loss() const;   ///< mean loss of the last min(regions, 100) steps
     LocalPrior prior() const;     ///< the current networks with provenance filled in
 

@@ -106,6 +106,8 @@ public:
     const PreparedCloud& cloud() const;
     /// Guided queries per step (0: the guide is off or labelled nothing).
     int guided_per_step() const;
+    /// Queries in the pool the steps draw from: at most steps x queries_per_step (SamplingOptions::max_queries).
+    std::int64_t pool_size() const;
 
 private:
     struct Impl;
