@@ -301,15 +301,18 @@ int main(int argc, char** argv) {
             cloud = pcp::cli::load_checked_cloud(input, pcp::min_points_for(o.fit.sampling));
         }
         {
-            // Peak memory of a run (docs/BENCHMARKS.md, "Huge inputs"): about 250 MiB plus 2.7 KiB per
-            // fitted point (the query pools, trees and per-point arrays of the fit), plus about 100
-            // bytes per input point (the cloud, its subsample, the normals). Refused up front where
-            // that cannot fit, rather than left to the OOM killer.
+            // Peak memory of a run (docs/BENCHMARKS.md, "Memory at 1M points"): about 250 MiB, plus
+            // the query fit's pool (at most steps x batch queries, about 52 bytes each while it is
+            // built), plus about 0.25 KiB per fitted point (trees and per-point arrays), plus about
+            // 100 bytes per input point (the cloud, its subsample, the normals). Refused up front
+            // where that cannot fit, rather than left to the OOM killer.
             const auto n = static_cast<double>(cloud.points.rows());
             const double fitted = o.max_fit_points > 0 ? std::min(n, static_cast<double>(o.max_fit_points)) : n;
+            const double pool = std::min(fitted * o.fit.sampling.queries_per_point * (1.0 + o.fit.sampling.uniform_fraction),
+                                         static_cast<double>(o.fit.steps) * o.fit.queries_per_step);
             pcp::cli::check_memory_for(input + ": fitting " + std::to_string(static_cast<long>(fitted)) + " points",
-                                       250.0 + 2.7e-3 * fitted + 1e-4 * n,
-                                       "fit fewer with --max-points (each 100,000 points fitted take about 270 MiB)");
+                                       250.0 + 52.0 * pool / 1048576.0 + 2.5e-4 * fitted + 1e-4 * n,
+                                       "fit fewer with --max-points");
         }
         pcp::LocalPrior prior;
         if (!prior_path.empty()) prior = pcp::load_prior(prior_path);

@@ -59,7 +59,7 @@ for n in $points; do
     fi
     # The summary line: "| read X s | denoise X s (..) | prior X s (..) | query net X s (..) | SDF grid X s (E evaluations) | marching cubes X s | total X s | ..."
     awk -v n="$n" -v rss="$(awk '/Maximum resident set size/ { printf "%.0f", $NF / 1024 }' "$out/scale_$n.time")" '
-        /^\| read / {
+        /^\| read [0-9]/ {
             split($0, f, "|")
             for (i in f) {
                 if (f[i] ~ /^ denoise /) { split(f[i], a, " "); den = a[2] }
