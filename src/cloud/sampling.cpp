@@ -22,6 +22,11 @@ void check_options(const SamplingOptions& o) {
 
 Eigen::Index min_points_for(const SamplingOptions& options) { return options.sigma_neighbor + 1; }
 
+SamplingOptions capped_at_draws(SamplingOptions options, std::int64_t draws) {
+    options.max_queries = options.max_queries > 0 ? std::min(options.max_queries, draws) : draws;
+    return options;
+}
+
 Eigen::VectorXf point_sigmas(const KdTree& tree, const SamplingOptions& options) {
     check_options(options);
     PCP_CHECK(tree.size() >= min_points_for(options),

@@ -227,8 +227,8 @@ void PriorTrainer::Impl::prepare(const std::vector<const PreparedCloud*>& clouds
                   cloud.name() << ": " << cloud.size() << " points; the query spread needs at least " << min_points_for(options.sampling));
         names.push_back(cloud.name());
         fp << " | " << cloud.name() << " (" << cloud.size() << " points, data " << std::hex << cloud.input_hash() << std::dec << ")";
-        const std::vector<Region> regions = split_into_regions(cloud.unit(), options.regions);
-        all_regions.push_back(regions);
+        std::vector<Region> regions = split_into_regions(cloud.unit(), options.regions);
+        all_regions.push_back(std::move(regions));
     }
     std::size_t region_count = 0;
     for (const auto& regions : all_regions) region_count += regions.size();
@@ -236,12 +236,9 @@ void PriorTrainer::Impl::prepare(const std::vector<const PreparedCloud*>& clouds
                                   << " points (a " << options.regions.grid << "^3 grid); use a coarser grid or denser clouds");
     // Each region's pool holds at most the queries its steps draw (SamplingOptions::max_queries):
     // the steps visit the regions in turn, so each region gets ceil(total / regions) of them.
-    const std::int64_t total_steps = options.max_steps > 0 ? options.max_steps
-                                                           : static_cast<std::int64_t>(options.epochs) * static_cast<std::int64_t>(region_count);
-    SamplingOptions sampling = options.sampling;
-    const std::int64_t draws = (total_steps + static_cast<std::int64_t>(region_count) - 1) / static_cast<std::int64_t>(region_count) *
-                               options.queries_per_step;
-    sampling.max_queries = sampling.max_queries > 0 ? std::min(sampling.max_queries, draws) : draws;
+    const auto r = static_cast<std::int64_t>(region_count);
+    total = options.max_steps > 0 ? options.max_steps : static_cast<std::int64_t>(options.epochs) * r;
+    const SamplingOptions sampling = capped_at_draws(options.sampling, (total + r - 1) / r * options.queries_per_step);
     for (std::size_t c = 0; c < clouds.size(); ++c) {
         const PreparedCloud& cloud = *clouds[c];
         const std::vector<Region>& regions = all_regions[c];
@@ -259,8 +256,6 @@ void PriorTrainer::Impl::prepare(const std::vector<const PreparedCloud*>& clouds
         }
     }
     checkpoint_id.fingerprint = fp.str();
-    const auto r = static_cast<std::int64_t>(pools.size());
-    total = options.max_steps > 0 ? options.max_steps : static_cast<std::int64_t>(options.epochs) * r;
     recent = detail::LossWindow(static_cast<std::size_t>(std::min<std::int64_t>(r, 100)));
 
     LocalPrior init(options.network, sched.seed);

@@ -150,10 +150,8 @@ QueryNetFitter::QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& pri
               cloud.name() << ": " << cloud.size() << " points; the query spread needs at least " << min_points_for(options.sampling));
     {
         // The pool holds at most the queries the fit draws (SamplingOptions::max_queries).
-        SamplingOptions sampling = options.sampling;
         const std::int64_t draws = std::max<std::int64_t>(options.steps, 1) * options.queries_per_step;
-        sampling.max_queries = sampling.max_queries > 0 ? std::min(sampling.max_queries, draws) : draws;
-        const QuerySet set = sample_queries(cloud.tree(), sampling, sched.seed);
+        const QuerySet set = sample_queries(cloud.tree(), capped_at_draws(options.sampling, draws), sched.seed);
         m.queries = set.queries.transpose();
         m.targets = set.targets.transpose();
     }

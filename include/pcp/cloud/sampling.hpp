@@ -40,6 +40,10 @@ struct SamplingOptions {
     std::int64_t max_queries = 0;
 };
 
+/// `options` with max_queries lowered to `draws` (the queries a training stage draws from its
+/// pool); a smaller cap already set is kept.
+SamplingOptions capped_at_draws(SamplingOptions options, std::int64_t draws);
+
 /// The minimum number of points sample_queries needs with these options.
 Eigen::Index min_points_for(const SamplingOptions& options);
 
