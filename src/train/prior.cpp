@@ -236,9 +236,9 @@ void PriorTrainer::Impl::prepare(const std::vector<const PreparedCloud*>& clouds
                                   << " points (a " << options.regions.grid << "^3 grid); use a coarser grid or denser clouds");
     // Each region's pool holds at most the queries its steps draw (SamplingOptions::max_queries):
     // the steps visit the regions in turn, so each region gets ceil(total / regions) of them.
-    const auto r = static_cast<std::int64_t>(region_count);
-    total = options.max_steps > 0 ? options.max_steps : static_cast<std::int64_t>(options.epochs) * r;
-    const SamplingOptions sampling = capped_at_draws(options.sampling, (total + r - 1) / r * options.queries_per_step);
+    const auto n_regions = static_cast<std::int64_t>(region_count);
+    total = options.max_steps > 0 ? options.max_steps : static_cast<std::int64_t>(options.epochs) * n_regions;
+    const SamplingOptions sampling = capped_at_draws(options.sampling, (total + n_regions - 1) / n_regions * options.queries_per_step);
     for (std::size_t c = 0; c < clouds.size(); ++c) {
         const PreparedCloud& cloud = *clouds[c];
         const std::vector<Region>& regions = all_regions[c];
@@ -256,7 +256,7 @@ void PriorTrainer::Impl::prepare(const std::vector<const PreparedCloud*>& clouds
         }
     }
     checkpoint_id.fingerprint = fp.str();
-    recent = detail::LossWindow(static_cast<std::size_t>(std::min<std::int64_t>(r, 100)));
+    recent = detail::LossWindow(static_cast<std::size_t>(std::min<std::int64_t>(n_regions, 100)));
 
     LocalPrior init(options.network, sched.seed);
     const int qn = options.queries_per_step;
