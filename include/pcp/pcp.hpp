@@ -37,3 +37,5 @@
 #include "pcp/eval/eval.hpp"
 
 #include "pcp/render/render.hpp"
+
+#include "pcp/demo/demo2d.hpp"

@@ -56,17 +56,17 @@ bool ParamLayout::operator==(const ParamLayout& o) const {
 // Shapes and construction
 // ------------------------------------------------------------------------------------------------
 
-BranchMlpShape decoder_shape(int cond, int width, int depth) {
-    return BranchMlpShape{3, cond, width, depth, 1};
+BranchMlpShape decoder_shape(int cond, int width, int depth, int dim) {
+    return BranchMlpShape{dim, cond, width, depth, 1};
 }
 
-BranchMlpShape query_net_shape(int cond, int width, int depth, int codes) {
-    return BranchMlpShape{3, codes, width, depth, 3 + cond};
+BranchMlpShape query_net_shape(int cond, int width, int depth, int codes, int dim) {
+    return BranchMlpShape{dim, codes, width, depth, dim + cond};
 }
 
-PointNetShape pointnet_shape(int cond, int pool_width, int hidden) {
+PointNetShape pointnet_shape(int cond, int pool_width, int hidden, int dim) {
     PointNetShape s;
-    s.point_widths = {3, pool_width};
+    s.point_widths = {dim, pool_width};
     s.head_widths = {pool_width, hidden, cond};
     return s;
 }
@@ -94,9 +94,9 @@ ParamLayout make_layout(const BranchMlpShape& s) {
 
 ParamLayout make_layout(const PointNetShape& s) {
     PCP_CHECK(s.point_widths.size() >= 2 && s.head_widths.size() >= 2 &&
-                  s.point_widths.front() == 3 && s.point_widths.back() == s.head_widths.front(),
-              "nn::PointNet: invalid shape: the per-point widths must start at 3 and end at the "
-              "head's first width, and both need at least two entries");
+                  s.point_widths.front() >= 1 && s.point_widths.back() == s.head_widths.front(),
+              "nn::PointNet: invalid shape: the per-point widths must start at the points' "
+              "dimension and end at the head's first width, and both need at least two entries");
     ParamLayout lay;
     for (std::size_t k = 1; k < s.point_widths.size(); ++k)
         lay.add_layer(s.point_widths[k], s.point_widths[k - 1]);
@@ -536,8 +536,9 @@ template <class S>
 void pointnet_forward(const PointNet<S>& net, const CMatRef<S>& points, PointNetCache<S>& c) {
     const Eigen::Index m = points.cols();
     PCP_CHECK(c.shape == net.shape, "nn::pointnet_forward: the cache was built for another shape");
-    PCP_CHECK(points.rows() == 3 && m >= 1 && m <= c.max_points,
-              "nn::pointnet_forward: points are " << points.rows() << "x" << m << ", expected 3 x (1.."
+    PCP_CHECK(points.rows() == net.shape.point_widths.front() && m >= 1 && m <= c.max_points,
+              "nn::pointnet_forward: points are " << points.rows() << "x" << m << ", expected "
+                                                  << net.shape.point_widths.front() << " x (1.."
                                                   << c.max_points << ")");
     c.m = static_cast<int>(m);
     const int P = net.num_point_layers();
@@ -665,7 +666,7 @@ void init_query_net(BranchMlp<S>& Q, Rng& rng, bool zero_shift_head) {
         const double fan_in = Q.layout.cols(l);
         fill_normal(Q.W(l), rng, 0.0, std::sqrt((head ? 1.0 : 2.0) / fan_in));
     }
-    if (zero_shift_head) Q.W(layer_head(sh)).topRows(std::min(3, sh.out)).setZero();
+    if (zero_shift_head) Q.W(layer_head(sh)).topRows(std::min(sh.in_a, sh.out)).setZero();
 }
 
 template <class S>

@@ -16,11 +16,12 @@ namespace pcp::nn {
 template <class S>
 Stage1Workspace<S>::Stage1Workspace(const PointNetShape& e, const BranchMlpShape& d,
                                     int max_queries, int max_points)
-    : enc(e, max_points), dec(d, max_queries), dL_ds(max_queries), dL_dg(3, max_queries),
+    : enc(e, max_points), dec(d, max_queries), dL_ds(max_queries), dL_dg(d.in_a, max_queries),
       dL_df(d.in_b) {
-    PCP_CHECK(d.out == 1 && d.in_a == 3 && d.in_b == e.cond(),
-              "nn::Stage1Workspace: the decoder must map (3, C) -> 1 with C = the encoder's "
-              "output size (" << e.cond() << "), got in_b = " << d.in_b);
+    PCP_CHECK(d.out == 1 && d.in_a == e.point_widths.front() && d.in_b == e.cond(),
+              "nn::Stage1Workspace: the decoder must map (D, C) -> 1 with D = the encoder's "
+              "point dimension (" << e.point_widths.front() << ") and C = its output size ("
+                                  << e.cond() << "), got in_a = " << d.in_a << ", in_b = " << d.in_b);
 }
 
 template <class S>
@@ -59,21 +60,22 @@ double Stage1Workspace<S>::loss_and_grad(const PointNet<S>& E, const BranchMlp<S
 // ------------------------------------------------------------------------------------------------
 
 BranchMlpShape stage2_query_shape(const Stage2Config& config, int cond, int width, int depth,
-                                  int codes) {
-    return BranchMlpShape{3, codes, width, depth, config.query_outputs(cond)};
+                                  int codes, int dim) {
+    return BranchMlpShape{dim, codes, width, depth, config.query_outputs(cond, dim)};
 }
 
 template <class S>
 Stage2Workspace<S>::Stage2Workspace(const BranchMlpShape& qs, const BranchMlpShape& d,
                                     int max_queries, Stage2Config cfg)
-    : config(cfg), qn(qs, max_queries), dec(d, max_queries), q_local(3, max_queries),
-      dL_ds(max_queries), dL_dg(3, cfg.train_decoder ? max_queries : 0),
+    : config(cfg), qn(qs, max_queries), dec(d, max_queries), q_local(d.in_a, max_queries),
+      dL_ds(max_queries), dL_dg(d.in_a, cfg.train_decoder ? max_queries : 0),
       guide_labels(Vec<S>::Zero(max_queries)) {
-    PCP_CHECK(d.out == 1 && d.in_a == 3 && d.in_b >= 1 && qs.in_a == 3 &&
-                  cfg.query_outputs(d.in_b) >= 1 && qs.out == cfg.query_outputs(d.in_b),
-              "nn::Stage2Workspace: the query network must output 3 + C = "
-                  << 3 + d.in_b << " values for the method, " << cfg.query_outputs(d.in_b)
-                  << " for this configuration; got " << qs.out);
+    const int D = d.in_a;
+    PCP_CHECK(d.out == 1 && d.in_b >= 1 && qs.in_a == D &&
+                  cfg.query_outputs(d.in_b, D) >= 1 && qs.out == cfg.query_outputs(d.in_b, D),
+              "nn::Stage2Workspace: the query network must read " << D << " coordinates and output D + C = "
+                  << D + d.in_b << " values for the method, " << cfg.query_outputs(d.in_b, D)
+                  << " for this configuration; got " << qs.in_a << " -> " << qs.out);
 }
 
 namespace {
@@ -84,7 +86,7 @@ CMatRef<S> stage2_condition(const Stage2Config& cfg, const BranchMlpCache<S>& qn
                             const CMatRef<S>& cond, Eigen::Index n) {
     switch (cfg.condition) {
         case QueryCondition::Predicted:
-            return CMatRef<S>(qn.out.middleRows(cfg.point == QueryPoint::Identity ? 0 : 3, C).leftCols(n));
+            return CMatRef<S>(qn.out.middleRows(cfg.point == QueryPoint::Identity ? 0 : qn.shape.in_a, C).leftCols(n));
         case QueryCondition::FreeCode:
             PCP_CHECK(cond.rows() == C && cond.cols() == 1,
                       "nn::stage 2: the free code must be C x 1 (C = " << C << "), got "
@@ -106,11 +108,12 @@ void stage2_forward(const Stage2Config& cfg, BranchMlpCache<S>& qn, BranchMlpCac
                     const CMatRef<S>& q_g, const CMatRef<S>& codes, const CMatRef<S>& cond,
                     bool with_grad) {
     const Eigen::Index n = q_g.cols();
+    const Eigen::Index D = q_g.rows();
     branch_mlp_forward(Q, q_g, codes, qn);
     switch (cfg.point) {
-        case QueryPoint::Shift: q_local.leftCols(n) = q_g + qn.out.topRows(3).leftCols(n); break;
+        case QueryPoint::Shift: q_local.leftCols(n) = q_g + qn.out.topRows(D).leftCols(n); break;
         case QueryPoint::Identity: q_local.leftCols(n) = q_g; break;
-        case QueryPoint::Direct: q_local.leftCols(n) = qn.out.topRows(3).leftCols(n); break;
+        case QueryPoint::Direct: q_local.leftCols(n) = qn.out.topRows(D).leftCols(n); break;
     }
     branch_mlp_forward<S>(F, q_local.leftCols(n), stage2_condition<S>(cfg, qn, F.shape.in_b, cond, n), dec);
     if (with_grad) {
@@ -195,9 +198,10 @@ double Stage2Workspace<S>::loss_and_grad(const BranchMlp<S>& Q, const BranchMlp<
     const auto lam_row = dL_ds.head(n).transpose().array();
     auto seed = qn.dL_dout.leftCols(n);
     int row = 0;
-    if (config.point != QueryPoint::Identity) {  // dq or q_l' itself: dq_l'/d(rows 0..2) = I
-        seed.topRows(3) = (dec.g_a.leftCols(n).array().rowwise() * lam_row).matrix();
-        row = 3;
+    if (config.point != QueryPoint::Identity) {  // dq or q_l' itself: dq_l'/d(rows 0..D-1) = I
+        const int D = F.shape.in_a;
+        seed.topRows(D) = (dec.g_a.leftCols(n).array().rowwise() * lam_row).matrix();
+        row = D;
     }
     if (config.condition == QueryCondition::Predicted)
         seed.middleRows(row, C) = (dec.g_b.leftCols(n).array().rowwise() * lam_row).matrix();
@@ -233,7 +237,7 @@ Eigen::Block<Mat<S>, 1, Eigen::Dynamic> global_sdf_eval(const BranchMlp<S>& Q,
                                                         GlobalSdfCache<S>& c) {
     const Eigen::Index n = q_g.cols();
     branch_mlp_forward(Q, q_g, codes, c.qn);
-    c.q_local.leftCols(n) = q_g + c.qn.out.topRows(3).leftCols(n);
+    c.q_local.leftCols(n) = q_g + c.qn.out.topRows(q_g.rows()).leftCols(n);
     return decoder_eval<S>(F, c.q_local.leftCols(n), c.qn.out.bottomRows(F.shape.in_b).leftCols(n),
                            c.dec);
 }

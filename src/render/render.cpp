@@ -205,8 +205,10 @@ const Glyph* find_glyph(char c) {
 }
 
 /// Draws `text` with its top-left corner at panel pixel (x, y), `scale` pixels per font pixel,
-/// clipped to the panel.
-void draw_text(Image& image, int panel_x, int panel_y, int panel_size, int x, int y, int scale, const std::string& text) {
+/// clipped to the panel (panel_w x panel_h pixels at (panel_x, panel_y)).
+void draw_text_in(Image& image, int panel_x, int panel_y, int panel_w, int panel_h, int x, int y, int scale,
+                  const std::string& text) {
+    const int panel_size = panel_w;
     for (char ch : text) {
         if (x + 5 * scale > panel_size) break;
         if (const Glyph* g = find_glyph(ch)) {
@@ -218,7 +220,7 @@ void draw_text(Image& image, int panel_x, int panel_y, int panel_size, int x, in
                     for (int dy = 0; dy < scale; ++dy)
                         for (int dx = 0; dx < scale; ++dx) {
                             const int px = x + col * scale + dx, py = y + drop + r * scale + dy;
-                            if (px < 0 || py < 0 || px >= panel_size || py >= panel_size) continue;
+                            if (px < 0 || py < 0 || px >= panel_w || py >= panel_h) continue;
                             std::uint8_t* p = image.pixel(panel_x + px, panel_y + py);
                             p[0] = RenderPalette::text[0];
                             p[1] = RenderPalette::text[1];
@@ -235,6 +237,13 @@ std::string item_name(const RenderItem& item, std::size_t index) {
 }
 
 }  // namespace
+
+void draw_text(Image& image, int x, int y, int scale, const std::string& text) {
+    PCP_CHECK(scale >= 1 && image.width > 0 && image.height > 0 &&
+                  image.rgb.size() == std::size_t(image.width) * std::size_t(image.height) * 3,
+              "render::draw_text: needs a non-empty image and a scale of at least 1");
+    draw_text_in(image, 0, 0, image.width, image.height, x, y, scale, text);
+}
 
 Image render(const std::vector<RenderItem>& items, const RenderOptions& options) {
     PCP_CHECK(!items.empty(), "render: nothing to draw (no items)");
@@ -295,7 +304,7 @@ Image render(const std::vector<RenderItem>& items, const RenderOptions& options)
         if (item.points.rows() > 0) draw_points(panel, item.points, cam, options.point_size, cut_z);
         if (options.labels && row == 0 && !item.label.empty()) {
             const int scale = std::max(1, size / 200);
-            draw_text(image, col * size, 0, size, 4 * scale, 4 * scale, scale, item.label);
+            draw_text_in(image, col * size, 0, size, size, 4 * scale, 4 * scale, scale, item.label);
         }
     }
 

@@ -3,6 +3,7 @@
 #include "pcp/io/io.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/cloud/shapes.hpp"
+#include "pcp/render/render.hpp"
 #include "test_meshes.hpp"
 
 #include <catch2/catch.hpp>
@@ -528,4 +529,26 @@ TEST_CASE("cli: pcp_eval --normals scores oriented points against a GT mesh, poi
     CHECK(bare.err.find("normals") != std::string::npos);
     const RunResult both = run(bin("pcp_eval") + " --normals --diagnose '" + (dir / "n.ply").string() + "' '" + (dir / "gt.ply").string() + "'");
     CHECK(both.exit_code == 2);
+}
+
+TEST_CASE("cli: pcp_demo2d writes the figure's pictures; usage errors exit 2, an unusable directory exits 1 naming it", "[cli]") {
+    const fs::path dir = case_dir("demo2d");
+    const std::string demo = bin("pcp_demo2d");
+    const RunResult ok = run(demo + " -o '" + (dir / "out").string() + "' --prior-steps 100 --fit-steps 100 --size 64 --quiet");
+    INFO("stderr: " << ok.err);
+    CHECK(ok.exit_code == 0);
+    for (const char* name : {"figure.png", "prior.png", "queries.png", "predicted.png", "zero_set.png"})
+        CHECK(fs::exists(dir / "out" / name));
+    CHECK(pcp::read_png((dir / "out" / "figure.png").string()).width == 4 * 64);
+
+    CHECK(run(demo).exit_code == 2);  // no -o
+    CHECK(run(demo + " -o '" + dir.string() + "' --size 8").exit_code == 2);
+    CHECK(run(demo + " -o '" + dir.string() + "' --fit-steps 0").exit_code == 2);
+    write_text(dir / "a_file", "x");
+    const RunResult blocked = run(demo + " -o '" + (dir / "a_file" / "sub").string() + "' --prior-steps 10 --fit-steps 10");
+    INFO("stderr: " << blocked.err);
+    CHECK(blocked.exit_code == 1);
+    CHECK(blocked.err.find("pcp_demo2d: ") == 0);
+    CHECK(blocked.err.find("a_file") != std::string::npos);
+    CHECK(std::count(blocked.err.begin(), blocked.err.end(), '\n') == 1);
 }

@@ -389,6 +389,69 @@ TEST_CASE("nn: stage-2 gradients into Q through the frozen F match finite differ
     }
 }
 
+TEST_CASE("nn: in the plane (points of dimension 2) stage-1 and stage-2 gradients match finite differences",
+          "[nn]") {
+    // The plane demonstration (pcp/demo/demo2d.hpp) runs the same networks with in_a = 2.
+    const int D = 2, C = 6, H = 16, L = 4, N = 10, M = 8;
+    Rng rng(21, 0);
+    PointNet<double> E = make_encoder(pointnet_shape(C, 32, 16, D), rng);
+    BranchMlp<double> F(decoder_shape(C, H, L, D));
+    init_decoder_geometric(F, rng);
+    for (int l = 0; l < F.layout.num_layers(); ++l)
+        for (int i = 0; i < F.layout.rows(l); ++i) F.b(l)(i, 0) += rng.normal(0.0, 0.05);
+    BranchMlp<double> Q(query_net_shape(C, H, L, 0, D));
+    REQUIRE(Q.shape.in_a == D);
+    REQUIRE(Q.shape.out == D + C);
+    init_query_net(Q, rng, false);
+    for (int l = 0; l < Q.layout.num_layers(); ++l)
+        for (int i = 0; i < Q.layout.rows(l); ++i) Q.b(l)(i, 0) += rng.normal(0.0, 0.05);
+    Q.W(layer_head(Q.shape)).topRows(D) *= 0.1;
+    MatrixXd points, q, t;
+    int redraws = 0;
+    for (;;) {  // points on a circle of radius 0.3, queries around them, t = the nearest point
+        points = randn(D, M, rng);
+        for (int j = 0; j < M; ++j) points.col(j) *= 0.3 / points.col(j).norm();
+        q.resize(D, N);
+        t.resize(D, N);
+        for (int i = 0; i < N; ++i) {
+            q.col(i) = points.col(i % M) + randn(D, 1, rng, 0.05);
+            Eigen::Index best;
+            (points.colwise() - q.col(i)).colwise().squaredNorm().minCoeff(&best);
+            t.col(i) = points.col(best);
+        }
+        nnref::Kinks k1, k2;
+        nnref::stage1_loss(E, F, q, t, points, &k1);
+        nnref::stage2_loss(Q, F, q, t, MatrixXd(), &k2);
+        if (std::min(k1.min_abs, k2.min_abs) >= 10 * kEps) break;
+        ++redraws;
+    }
+    CHECK(redraws <= 5);
+    // Stage 1: decoder and encoder.
+    Stage1Workspace<double> ws1(E.shape, F.shape, N, M);
+    VectorXd dE(E.layout.size()), dF(F.layout.size());
+    const double L1 = ws1.loss_and_grad(E, F, q, t, points, dE, dF);
+    auto loss1 = [&](nnref::Kinks* k) { return nnref::stage1_loss(E, F, q, t, points, k); };
+    CHECK(std::abs(L1 - loss1(nullptr)) < 1e-12);
+    const auto cf = nnref::sample_coords(F.layout, kProbes);
+    const auto ce = nnref::sample_coords(E.layout, kProbes);
+    require_check(nnref::check_gradient(F.params, dF, cf, loss1, kEps, kTol, kAtol, "dL/dtheta_F"), int(cf.size()),
+                  "2D stage 1 decoder");
+    require_check(nnref::check_gradient(E.params, dE, ce, loss1, kEps, kTol, kAtol, "dL/dtheta_E"), int(ce.size()),
+                  "2D stage 1 encoder");
+    // Stage 2: Q through the frozen F.
+    Stage2Workspace<double> ws2(Q.shape, F.shape, N);
+    VectorXd dQ(Q.layout.size());
+    const MatrixXd no_codes;
+    const double L2 = ws2.loss_and_grad(Q, F, q, t, no_codes, dQ);
+    auto loss2 = [&](nnref::Kinks* k) { return nnref::stage2_loss(Q, F, q, t, no_codes, k); };
+    CHECK(std::abs(L2 - loss2(nullptr)) < 1e-12);
+    const auto cq = nnref::sample_coords(Q.layout, kProbes);
+    require_check(nnref::check_gradient(Q.params, dQ, cq, loss2, kEps, kTol, kAtol, "dL/dtheta_Q"), int(cq.size()),
+                  "2D stage 2");
+    // A 3D query network does not fit a 2D decoder.
+    CHECK_THROWS_AS(Stage2Workspace<double>(query_net_shape(C, H, L), F.shape, N), pcp::Error);
+}
+
 TEST_CASE("nn: pull loss derivatives match finite differences, p == t gives no NaN", "[nn]") {
     Rng rng(9, 0);
     const int N = 6;

@@ -364,13 +364,13 @@ TEST_CASE("nn: step inputs are checked", "[nn]") {
     BranchMlp<float> F(decoder_shape(kC, kH, kL));
     BranchMlp<float> Fwrong(decoder_shape(kC + 1, kH, kL));
     CHECK_THROWS_WITH(Stage1Workspace<float>(E.shape, Fwrong.shape, 8, 8),
-                      Catch::Contains("encoder's output size"));
+                      Catch::Contains("its output size (16)"));
     Stage1Trainer<float> s1(E, F, 8, 8);
     const MatrixXf q = MatrixXf::Zero(3, 9);  // more than max_queries
     CHECK_THROWS_WITH(s1.step(q, q, q.leftCols(4)), Catch::Contains("expected 3 x (1..8)"));
     BranchMlp<float> Q(query_net_shape(kC + 2, kH, kL));
     CHECK_THROWS_WITH(Stage2Workspace<float>(Q.shape, F.shape, 8),
-                      Catch::Contains("must output 3 + C"));
+                      Catch::Contains("output D + C = 19"));
 }
 
 TEST_CASE("nn: the stage-2 ablation steps allocate nothing after the first either", "[nn]") {

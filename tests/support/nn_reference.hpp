@@ -114,7 +114,7 @@ inline void input_grad(const BranchMlp<double>& net, const Trace& tr, VectorXd& 
     }
 }
 
-/// PointNet forward for one region (points 3 x M): returns f (C).
+/// PointNet forward for one region (points D x M): returns f (C).
 inline VectorXd pointnet(const PointNet<double>& net, const MatrixXd& points, Kinks* k) {
     const int P = net.num_point_layers();
     const int wP = net.shape.point_widths.back();
@@ -176,7 +176,7 @@ inline double stage2_loss(const BranchMlp<double>& Q, const BranchMlp<double>& F
     for (Eigen::Index i = 0; i < qg.cols(); ++i) {
         const VectorXd code = codes.size() ? VectorXd(codes.col(i)) : VectorXd();
         const Trace tq = forward(Q, qg.col(i), code, k);
-        const VectorXd ql = qg.col(i) + tq.out.head(3);
+        const VectorXd ql = qg.col(i) + tq.out.head(qg.rows());
         const Trace tf = forward(F, ql, tq.out.tail(C), k);
         VectorXd ga, gb;
         input_grad(F, tf, ga, gb);

@@ -1,5 +1,8 @@
 // The three networks of METHOD.md §2 and their hand-written passes (METHOD.md §4).
 //
+// Points have dim = 3 coordinates (2 in the plane demonstration, pcp/demo/demo2d.hpp): every "3"
+// below is the shape's in_a, and the PointNet's first per-point width.
+//
 //  * BranchMlp: two input branches (x_a -> H and optional x_b -> H, each ReLU, concatenated to 2H),
 //    then L hidden layers of width H each followed by ReLU, then a linear head H -> out.
 //      - the local SDF decoder F:   x_a = q (3), x_b = condition f (C), out = 1 (s)
@@ -91,10 +94,11 @@ struct BranchMlpShape {
     }
 };
 
-/// The decoder F: q (3) and condition f (C) -> s (1).
-BranchMlpShape decoder_shape(int cond, int width = 512, int depth = 8);
-/// The query network Q: q_g (3) [+ one-hot code (K)] -> (dq (3), f' (C)).
-BranchMlpShape query_net_shape(int cond, int width = 512, int depth = 8, int codes = 0);
+/// The decoder F: q (dim: 3, or 2 in the plane demonstration) and condition f (C) -> s (1).
+BranchMlpShape decoder_shape(int cond, int width = 512, int depth = 8, int dim = 3);
+/// The query network Q: q_g (dim) [+ one-hot code (K)] -> (dq (dim), f' (C)).
+BranchMlpShape query_net_shape(int cond, int width = 512, int depth = 8, int codes = 0,
+                               int dim = 3);
 
 /// Layer indices: 0 = branch a (H x in_a); 1 = branch b (H x in_b, only if in_b > 0); then
 /// hidden k = 1..L (hidden 1 is H x 2H with a b-branch, H x H without); then the head (out x H).
@@ -238,8 +242,8 @@ struct PointNetShape {
     }
 };
 
-/// The release's encoder (3 -> pool_width, max-pool, pool_width -> hidden -> cond).
-PointNetShape pointnet_shape(int cond, int pool_width = 1024, int hidden = 512);
+/// The release's encoder (dim (3) -> pool_width, max-pool, pool_width -> hidden -> cond).
+PointNetShape pointnet_shape(int cond, int pool_width = 1024, int hidden = 512, int dim = 3);
 
 /// Layer indices: per-point layers 0..P-1, then head layers P..P+J-1.
 template <class S>

@@ -16,7 +16,8 @@
 // A *Workspace holds every buffer of one step, sized once (max queries / points); after the first
 // step nothing is allocated by libpcp (test_nn_steps.cpp counts allocations). The *Trainer classes
 // add Adam, the learning-rate schedule and clipping. Networks passed by const reference are never
-// modified. Shapes: q, t, q_g: 3 x N; points: 3 x M; codes: K x N one-hot (or 0 x 0).
+// modified. Shapes: q, t, q_g: 3 x N; points: 3 x M; codes: K x N one-hot (or 0 x 0). Every 3
+// is the networks' point dimension D (the decoder's in_a): 2 in the plane demonstration.
 #pragma once
 
 #include "pcp/nn/adam.hpp"
@@ -80,9 +81,9 @@ struct Stage2Config {
     QueryCondition condition = QueryCondition::Predicted;
     bool train_decoder = false;  ///< F is trained with Q ("No prior", "Tune theta_2 + theta_3")
 
-    /// Q's output rows for condition size C: [point (3, unless Identity); f' (C, if Predicted)].
-    int query_outputs(int C) const {
-        return (point == QueryPoint::Identity ? 0 : 3) + (condition == QueryCondition::Predicted ? C : 0);
+    /// Q's output rows for condition size C: [point (dim, unless Identity); f' (C, if Predicted)].
+    int query_outputs(int C, int dim = 3) const {
+        return (point == QueryPoint::Identity ? 0 : dim) + (condition == QueryCondition::Predicted ? C : 0);
     }
     bool is_method() const {
         return point == QueryPoint::Shift && condition == QueryCondition::Predicted && !train_decoder;
@@ -91,7 +92,7 @@ struct Stage2Config {
 
 /// Q's shape for a configuration: q_g (3) [+ one-hot code (K)] -> config.query_outputs(cond).
 BranchMlpShape stage2_query_shape(const Stage2Config& config, int cond, int width = 512,
-                                  int depth = 8, int codes = 0);
+                                  int depth = 8, int codes = 0, int dim = 3);
 
 template <class S>
 struct Stage2Workspace {
@@ -155,7 +156,7 @@ Eigen::Block<Mat<S>, 1, Eigen::Dynamic> decoder_eval(const BranchMlp<S>& decoder
 template <class S>
 struct GlobalSdfCache {
     GlobalSdfCache(const BranchMlpShape& query_net, const BranchMlpShape& decoder, int max_batch)
-        : qn(query_net, max_batch, false), dec(decoder, max_batch, false), q_local(3, max_batch) {}
+        : qn(query_net, max_batch, false), dec(decoder, max_batch, false), q_local(decoder.in_a, max_batch) {}
     BranchMlpCache<S> qn, dec;
     Mat<S> q_local;
     Mat<S> cond;  ///< C x max_batch when the caller gathers a Given condition here (sized by it)

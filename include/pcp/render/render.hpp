@@ -76,6 +76,12 @@ struct RenderPalette {
 ///   index out of range (naming the item by its label or index).
 Image render(const std::vector<RenderItem>& items, const RenderOptions& options = {});
 
+/// Writes `text` into `image` with its top-left corner at pixel (x, y), in the renderer's 5 x 7
+/// font at `scale` pixels per font pixel (characters a-z 0-9 _ . - and space; others blank),
+/// clipped to the image. For pictures drawn by other code (the plane demonstration).
+/// @throws pcp::Error for an empty or inconsistent image or a scale below 1.
+void draw_text(Image& image, int x, int y, int scale, const std::string& text);
+
 /// The PNG encoding (8-bit RGB, no interlace) of `image`, in memory.
 /// @throws pcp::Error for an empty or inconsistent image, or an encoder failure.
 std::vector<std::uint8_t> encode_png(const Image& image);
