@@ -4,7 +4,9 @@
 // normalisation, --prior-grid / --prior-normalization, are the paper's ablation tables 11-12).
 // Progress, checkpoints of the query-network stage (OUT.ckpt, every --checkpoint-every steps and
 // on SIGINT/SIGTERM), --resume, and a final report with times, memory, loss, mesh size and
-// closedness.
+// closedness. Several inputs (files, directories, --list) with --output-dir DIR: one query network
+// for all of them, each query conditioned on its cloud's one-hot code (pcp::reconstruct_many), one
+// mesh per input (DIR/<input name>.ply), checkpoint DIR/pcp_many.ckpt.
 #include "cli_common.hpp"
 
 #include "pcp/core/error.hpp"
@@ -34,6 +36,121 @@ std::string fmt(double v) {
     return buf;
 }
 
+/// Several inputs, one fit (pcp::reconstruct_many): --output-dir DIR gets DIR/<stem>.ply per input.
+int run_many(const cxxopts::ParseResult& args, pcp::ReconstructOptions o, const pcp::cli::Log& log,
+             const std::string& precision, const std::vector<std::string>& positional, const std::string& list_file,
+             const std::string& output_dir) {
+    namespace fs = std::filesystem;
+    if (output_dir.empty()) throw pcp::cli::UsageError("several inputs need --output-dir DIR (one mesh per input)");
+    if (args.count("output")) throw pcp::cli::UsageError("-o names one mesh; with several inputs use --output-dir DIR");
+    if (!args["normals"].as<std::string>().empty()) throw pcp::cli::UsageError("--normals takes one input");
+    if (o.fit.ablation != pcp::QueryAblation::None || o.fit.sign_guide.enabled)
+        throw pcp::cli::UsageError("several inputs are fitted with the method itself: no --ablation, no --sign-guide");
+    const std::vector<std::string> inputs = pcp::cli::collect_inputs(positional, list_file);
+    if (inputs.empty()) throw pcp::cli::UsageError("no input point clouds");
+    const std::string prior_path = args["prior"].as<std::string>();
+    const std::string ext = ".ply";  // --ascii writes ascii PLY
+    // Outputs: DIR/<stem>.ply, one per input; when two inputs share a stem (case/input.ply),
+    // DIR/<parent directory>_<stem>.ply for all; still the same: refused.
+    std::vector<std::string> stems;
+    for (const std::string& in : inputs) stems.push_back(fs::path(in).stem().string());
+    const bool shared_stems = std::any_of(stems.begin(), stems.end(), [&](const std::string& a) {
+        return std::count(stems.begin(), stems.end(), a) > 1;
+    });
+    std::vector<std::string> outputs;
+    for (std::size_t i = 0; i < inputs.size(); ++i) {
+        const std::string parent = fs::absolute(fs::path(inputs[i])).parent_path().filename().string();
+        const std::string name = shared_stems ? parent + "_" + stems[i] : stems[i];
+        const std::string out = (fs::path(output_dir) / (name + ext)).string();
+        for (std::size_t j = 0; j < i; ++j)
+            if (outputs[j] == out)
+                throw pcp::cli::UsageError(inputs[j] + " and " + inputs[i] + " would both write " + out + "; rename one");
+        outputs.push_back(out);
+    }
+    std::error_code ec;
+    fs::create_directories(output_dir, ec);
+    if (ec || !fs::is_directory(output_dir))
+        throw pcp::Error(output_dir + ": cannot create the output directory" + (ec ? " (" + ec.message() + ")" : std::string()));
+    std::vector<std::string> protected_files = inputs;
+    if (!prior_path.empty()) protected_files.push_back(prior_path);
+    for (const std::string& out : outputs) pcp::check_output_path(out, protected_files);
+
+    const auto t_start = std::chrono::steady_clock::now();
+    std::vector<pcp::Points> clouds;
+    double total_points = 0, fitted_points = 0;
+    for (const std::string& in : inputs) {
+        clouds.push_back(pcp::cli::load_checked_cloud(in, pcp::min_points_for(o.fit.sampling)).points);
+        const auto n = static_cast<double>(clouds.back().rows());
+        total_points += n;
+        fitted_points += o.max_fit_points > 0 ? std::min(n, static_cast<double>(o.max_fit_points)) : n;
+    }
+    {
+        // The single-input model (main below) summed over the inputs; one pool for all of them.
+        const double pool = std::min(fitted_points * o.fit.sampling.queries_per_point * (1.0 + o.fit.sampling.uniform_fraction),
+                                     static_cast<double>(o.fit.steps) * o.fit.queries_per_step);
+        pcp::cli::check_memory_for(std::to_string(inputs.size()) + " inputs: fitting " + std::to_string(static_cast<long>(fitted_points)) +
+                                       " points",
+                                   250.0 + 52.0 * pool / 1048576.0 + 2.5e-4 * fitted_points + 1e-4 * total_points,
+                                   "fit fewer inputs at once, or fewer points with --max-points");
+    }
+    pcp::LocalPrior prior;
+    if (!prior_path.empty()) prior = pcp::load_prior(prior_path);
+    const double t_read = pcp::cli::seconds_since(t_start);
+
+    pcp::cli::print_parameter_table(
+        log, {{"inputs", std::to_string(inputs.size()) + " clouds, " + std::to_string(static_cast<long>(total_points)) +
+                             " points (one query network, a one-hot code per cloud)"},
+              {"output directory", output_dir},
+              {"prior", !prior_path.empty() ? prior_path : "self-prior on all inputs"},
+              {"preset", args["preset"].as<std::string>()},
+              {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step) +
+                                              " (shared: about " + std::to_string(o.fit.steps * o.fit.queries_per_step /
+                                                                                  static_cast<std::int64_t>(inputs.size())) +
+                                              " queries per cloud)"},
+              {"resolution", std::to_string(o.resolution)},
+              {"precision", precision},
+              {"seed", std::to_string(o.fit.schedule.seed)}});
+    const auto stage_memory = std::make_shared<pcp::cli::StageMemory>();
+    o.progress = pcp::cli::make_progress_printer(log, o.fit.schedule.progress_every, stage_memory);
+    o.fit.schedule.checkpoint_path = (fs::path(output_dir) / "pcp_many.ckpt").string();
+    o.fit.schedule.resume = args.count("resume") > 0;
+    std::vector<pcp::ReconstructReport> reports;
+    const std::vector<pcp::Mesh> meshes = pcp::reconstruct_many(clouds, prior_path.empty() ? nullptr : &prior, o, &reports);
+    if (meshes.empty()) throw pcp::cli::Cancelled("interrupted; continue the query-network stage with --resume");
+    pcp::MeshWriteOptions wo;
+    wo.ascii = args.count("ascii") > 0;
+    double grid_s = 0, mesh_s = 0;
+    for (std::size_t i = 0; i < meshes.size(); ++i) {
+        pcp::write_mesh(outputs[i], meshes[i], wo);
+        const pcp::ReconstructReport& r = reports[i];
+        grid_s += r.seconds_grid;
+        mesh_s += r.seconds_mesh + r.seconds_denoise;
+        std::ostringstream line;
+        line << "wrote " << outputs[i] << " (" << inputs[i] << ", " << r.input_points << " points): " << meshes[i].vertices.rows()
+             << " vertices, " << meshes[i].faces.rows() << " faces, " << (r.closed ? "closed" : "NOT closed") << ", grid "
+             << fmt(r.seconds_grid) << " s, mesh " << fmt(r.seconds_mesh) << " s";
+        log.info(line.str());
+    }
+    if (!o.keep_checkpoints) fs::remove(o.fit.schedule.checkpoint_path, ec);
+    const double total_s = pcp::cli::seconds_since(t_start);
+    const pcp::ReconstructReport& r0 = reports.front();
+    pcp::cli::print_stage_table(log, {{"read", t_read, -1},
+                                      {prior_path.empty() ? "self-prior" : "prior (read)", r0.seconds_prior, stage_memory->of("prior")},
+                                      {"query net (" + std::to_string(r0.fit_steps) + " steps, all clouds)", r0.seconds_fit,
+                                       stage_memory->of("query-net")},
+                                      {"SDF grids and sign repairs", grid_s, stage_memory->of("sdf-grid")},
+                                      {"denoise, marching cubes, surface fits", mesh_s, -1},
+                                      {"total (peak memory of the run)", total_s, pcp::cli::peak_rss_mib()}});
+    std::ostringstream s;
+    s << "| clouds " << meshes.size() << " | read " << fmt(t_read) << " s | prior " << fmt(r0.seconds_prior) << " s (loss "
+      << fmt(r0.prior_loss) << ") | query net " << fmt(r0.seconds_fit) << " s (" << r0.fit_steps << " steps, loss "
+      << fmt(r0.fit_loss) << ") | SDF grids " << fmt(grid_s) << " s | meshes " << fmt(mesh_s) << " s | total " << fmt(total_s)
+      << " s | per cloud " << fmt(total_s / static_cast<double>(meshes.size())) << " s | precision " << precision
+      << " | peak memory " << fmt(pcp::cli::peak_rss_mib()) << " MiB";
+    log.info(s.str());
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -43,10 +160,16 @@ int main(int argc, char** argv) {
         cxxopts::Options options("pcp_reconstruct",
                                  "Reconstruct a mesh from an unoriented point cloud (.ply .xyz .txt .pts .npy) with PCP.\n"
                                  "Without INPUT, runs on the embedded default shape. Option defaults are those of --preset default.");
-        options.positional_help("[INPUT]");
+        options.positional_help("[INPUT...]");
         options.add_options()
-            ("input", "Point cloud file", cxxopts::value<std::string>())
+            ("input", "Point cloud file; several (files or directories of them) with --output-dir: one query network for "
+                      "all, a one-hot code per cloud (the paper's multi-cloud fit)", cxxopts::value<std::vector<std::string>>())
             ("o,output", "Output mesh (.ply .obj .off)", cxxopts::value<std::string>()->default_value("pcp_mesh.ply"))
+            ("output-dir", "With several inputs: write DIR/<input name>.ply for each (DIR/<its directory>_<name>.ply when "
+                           "names repeat; created if missing)",
+             cxxopts::value<std::string>()->default_value(""))
+            ("list", "A file naming input clouds, one per line ('#' comments; relative to the file); implies several "
+                     "inputs (--output-dir)", cxxopts::value<std::string>()->default_value(""))
             ("normals", "Also write the input points with their oriented normals (nx ny nz, outward, from the "
                         "fitted surface: see --normals-from; .ply .xyz .npy)", cxxopts::value<std::string>()->default_value(""))
             ("normals-from", "mesh | pca | field: the final mesh's normal at the nearest point; the PCA normal "
@@ -266,8 +389,15 @@ int main(int argc, char** argv) {
             throw pcp::cli::UsageError("--builtin-points must be >= " + std::to_string(pcp::min_points_for(o.fit.sampling)));
         o.fit.schedule.seed = o.self_prior.schedule.seed = common.seed;
 
-        const bool builtin = !args.count("input");
-        const std::string input = builtin ? "<default shape>" : args["input"].as<std::string>();
+        const std::vector<std::string> positional =
+            args.count("input") ? args["input"].as<std::vector<std::string>>() : std::vector<std::string>{};
+        const std::string list_file = args["list"].as<std::string>();
+        const std::string output_dir = args["output-dir"].as<std::string>();
+        if (positional.size() > 1 || !list_file.empty() || !output_dir.empty())
+            return run_many(args, o, log, precision, positional, list_file, output_dir);
+
+        const bool builtin = positional.empty();
+        const std::string input = builtin ? "<default shape>" : positional.front();
         const std::string output = args["output"].as<std::string>();
         const std::string prior_path = args["prior"].as<std::string>();
         const std::string ext = pcp::file_extension(output);

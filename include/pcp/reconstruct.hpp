@@ -21,6 +21,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace pcp {
 
@@ -112,5 +113,19 @@ struct ReconstructReport {
 /// denoised); empty when the run was cancelled.
 Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior, const ReconstructOptions& options,
                  ReconstructReport* report = nullptr, Points* normals = nullptr);
+
+/// Several clouds, one fit (paper, "Optimization": multiple point clouds with one-hot vectors as
+/// the condition of each q_g): each cloud is prepared on its own (denoised when asked, its own unit
+/// box, subsampled above max_fit_points), one prior serves them all (given, or a self-prior trained
+/// on all of them), and ONE query network is fitted with each query conditioned on its cloud's
+/// one-hot code (QueryNetFitter's several-cloud form: equal shares of options.fit.steps x batch).
+/// Then each cloud is meshed from its own F_g(., e_k) exactly as reconstruct() does, in its own
+/// input frame. One cloud is reconstruct() itself. Only the method (ablation none) and no sign
+/// guide; resume and progress as for one cloud (stages "prior", "query-net", then "sdf-grid" once
+/// per cloud). `reports` (if given) gets one report per cloud; the prior's and the fit's figures
+/// are the shared run's, in each. Returns one mesh per cloud, in order; empty when cancelled
+/// (reports' `cancelled` set). Throws pcp::Error naming the cloud ("cloud k") for bad input.
+std::vector<Mesh> reconstruct_many(const std::vector<Points>& clouds, const LocalPrior* prior,
+                                   const ReconstructOptions& options, std::vector<ReconstructReport>* reports = nullptr);
 
 }  // namespace pcp

@@ -19,6 +19,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <memory>
 #include <vector>
 
 namespace pcp {
@@ -95,8 +96,9 @@ PointsF per_input_point(const PointsF& values, const PreparedCloud& cloud, const
 /// The prior to fit against: `given`, else (with checkpoints on and --resume) the self-prior kept
 /// beside the query-net checkpoint, else F's sizes only (no-prior ablation), else a self-prior
 /// trained on the cloud. Null when the training was cancelled.
-const LocalPrior* obtain_prior(const LocalPrior* given, const PreparedCloud& cloud, const ReconstructOptions& options,
-                               const std::string& prior_ckpt, LocalPrior& self_prior, ReconstructReport& r) {
+const LocalPrior* obtain_prior(const LocalPrior* given, const std::vector<const PreparedCloud*>& clouds,
+                               const ReconstructOptions& options, const std::string& prior_ckpt, LocalPrior& self_prior,
+                               ReconstructReport& r) {
     if (given) return given;
     if (options.fit.schedule.resume && !prior_ckpt.empty() && std::filesystem::exists(prior_ckpt)) {
         self_prior = load_prior(prior_ckpt);
@@ -117,7 +119,12 @@ const LocalPrior* obtain_prior(const LocalPrior* given, const PreparedCloud& clo
         po.schedule.checkpoint_every = options.fit.schedule.checkpoint_every;
         po.schedule.resume = options.fit.schedule.resume;
     }
-    PriorTrainer trainer(cloud, po);
+    // One cloud: the prepared cloud as it is; several: each normalised by the trainer (already in
+    // its unit box, so unchanged), one prior for all of them.
+    std::vector<TrainingCloud> several;
+    if (clouds.size() > 1)
+        for (const PreparedCloud* c : clouds) several.push_back(TrainingCloud{c->name(), c->unit().cast<double>()});
+    PriorTrainer trainer = clouds.size() > 1 ? PriorTrainer(several, po) : PriorTrainer(*clouds.front(), po);
     if (!trainer.run()) return nullptr;
     self_prior = trainer.prior();
     r.prior_loss = trainer.recent_loss();
@@ -133,67 +140,60 @@ const LocalPrior* obtain_prior(const LocalPrior* given, const PreparedCloud& clo
 
 namespace {
 
-Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<const Points>& all_points, bool subsampled,
-                     const LocalPrior* prior, const ReconstructOptions& options, ReconstructReport& r, Points* normals) {
+/// One input as the fit sees it: optionally denoised (include/pcp/cloud/denoise.hpp), then
+/// prepared (checked, unit box, KD-tree). The raw input is checked here only when it is denoised
+/// first; PreparedCloud checks what it is given.
+struct FitInput {
+    Points denoised;
+    std::unique_ptr<PreparedCloud> cloud;
+};
+
+FitInput prepare_input(const Eigen::Ref<const Points>& points, const std::string& name, const ReconstructOptions& options,
+                       ReconstructReport& r) {
     r.fit_points = points.rows();
     const Eigen::Index min_points = min_points_for(options.fit.sampling);
-    // Optional denoising (include/pcp/cloud/denoise.hpp); everything below works on `cloud`, which
-    // checks what it is given. The raw input is checked here only when it is denoised first.
-    Points denoised;
+    FitInput in;
     if (options.denoise.passes > 0 || options.denoise.automatic) {
-        check_point_cloud(points, "input cloud", min_points);
+        check_point_cloud(points, name, min_points);
         const auto t_denoise = std::chrono::steady_clock::now();
         DenoiseOptions d = options.denoise;
         d.passes = r.denoise_passes = denoise_passes(points, d);
         d.automatic = false;
-        if (d.passes > 0) denoised = denoise_points(points, d);
+        if (d.passes > 0) in.denoised = denoise_points(points, d);
         r.seconds_denoise = seconds_since(t_denoise);
     }
-    const PreparedCloud cloud(r.denoise_passes > 0 ? Eigen::Ref<const Points>(denoised) : points,
-                              r.denoise_passes > 0 ? "denoised input cloud" : "input cloud", min_points);
+    in.cloud = std::make_unique<PreparedCloud>(r.denoise_passes > 0 ? Eigen::Ref<const Points>(in.denoised) : points,
+                                               r.denoise_passes > 0 ? "denoised " + name : name, min_points);
+    return in;
+}
 
-    auto t0 = std::chrono::steady_clock::now();
-    LocalPrior self_prior;
-    const std::string& ckpt = options.fit.schedule.checkpoint_path;
-    const std::string prior_ckpt = ckpt.empty() ? "" : ckpt + ".prior";
-    prior = obtain_prior(prior, cloud, options, prior_ckpt, self_prior, r);
-    r.seconds_prior = seconds_since(t0);
-    if (!prior) {
-        r.cancelled = true;
-        return Mesh{};
-    }
-
-    t0 = std::chrono::steady_clock::now();
-    QueryFitOptions fo = options.fit;
-    fo.schedule.progress = chain(fo.schedule.progress, options.progress);
-    SignRepairOptions so = options.sign_repair;
-    // Inside / outside by visibility through the cloud (include/pcp/cloud/visibility.hpp): the
-    // labels of the fit's sign guide and of the sign repair's label vote.
+/// Inside / outside by visibility through the cloud (include/pcp/cloud/visibility.hpp): the labels
+/// of the fit's sign guide and of the sign repair's label vote (empty when neither is on).
+VisibilityLabels visibility_labels(const PreparedCloud& cloud, const ReconstructOptions& options, ReconstructReport& r) {
     VisibilityLabels labels;
-    if (fo.sign_guide.enabled || (so.enabled && so.min_label_votes > 0)) {
-        VisibilityOptions vo = fo.sign_guide.visibility;
-        vo.seed = fo.schedule.seed;
+    if (options.fit.sign_guide.enabled || (options.sign_repair.enabled && options.sign_repair.min_label_votes > 0)) {
+        VisibilityOptions vo = options.fit.sign_guide.visibility;
+        vo.seed = options.fit.schedule.seed;
         labels = label_by_visibility(cloud.tree(), vo);
     }
     r.visibility = labels.stats;
-    QueryNetFitter fitter(cloud, *prior, fo, &labels);
-    if (!fitter.run()) {
-        r.cancelled = true;
-        return Mesh{};
-    }
-    if (options.keep_checkpoints && !ckpt.empty()) fitter.checkpoint(ckpt);
-    r.guided_per_step = fitter.guided_per_step();
-    r.fit_loss = fitter.recent_loss();
-    r.fit_steps = fitter.steps_done();
-    r.seconds_fit = seconds_since(t0);
+    return labels;
+}
 
-    t0 = std::chrono::steady_clock::now();
+/// From the fitted field of cloud `index` to its mesh in the input frame: sign, thin offset,
+/// winding sign, sign repair, grid, cavity fill, fine repair, marching cubes, surface fit,
+/// smoothing, normals.
+Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cloud, const Eigen::Ref<const Points>& all_points,
+                bool subsampled, const VisibilityLabels& labels, const ReconstructOptions& options, ReconstructReport& r,
+                Points* normals) {
+    auto t0 = std::chrono::steady_clock::now();
+    SignRepairOptions so = options.sign_repair;
     const GridPrecision grid_precision(options.fp32_grid);
     const GridSpec spec = make_grid_spec(bounding_box(cloud.unit().cast<double>()), options.resolution, options.margin);
     // Outside is positive: decide on the grid box's boundary, which encloses the whole cloud.
     const PointsF boundary = box_boundary_samples(spec.box, 12);
     Eigen::VectorXf bvals(boundary.rows());
-    fitter.sdf(boundary, bvals);
+    fitter.sdf(index, boundary, bvals);
     r.sign_flipped = (bvals.array() < static_cast<float>(options.iso)).count() * 2 > bvals.size();
     const float iso = static_cast<float>(options.iso);
     // The thin offset (ReconstructOptions::thin_offset) raises the level only near the data: by
@@ -214,7 +214,7 @@ Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<co
     const Eigen::Array3f tol = (spec.spacing() * 1e-3).cast<float>().array();
     const auto outside = static_cast<float>(1e-3 * spec.spacing().minCoeff());
     const SdfBatchFn fitted = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
-        fitter.sdf(q, v);
+        fitter.sdf(index, q, v);
         if (sign < 0) v = -v;
         if (iso != 0.0f) v.array() -= iso;
         if (thin > 0)
@@ -302,6 +302,41 @@ Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<co
         r.normals.seconds = seconds_since(t_normals);
     }
     r.seconds_mesh = seconds_since(t0);
+    return mesh;
+}
+
+Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<const Points>& all_points, bool subsampled,
+                     const LocalPrior* prior, const ReconstructOptions& options, ReconstructReport& r, Points* normals) {
+    const FitInput in = prepare_input(points, "input cloud", options, r);
+    const PreparedCloud& cloud = *in.cloud;
+
+    auto t0 = std::chrono::steady_clock::now();
+    LocalPrior self_prior;
+    const std::string& ckpt = options.fit.schedule.checkpoint_path;
+    const std::string prior_ckpt = ckpt.empty() ? "" : ckpt + ".prior";
+    prior = obtain_prior(prior, {&cloud}, options, prior_ckpt, self_prior, r);
+    r.seconds_prior = seconds_since(t0);
+    if (!prior) {
+        r.cancelled = true;
+        return Mesh{};
+    }
+
+    t0 = std::chrono::steady_clock::now();
+    QueryFitOptions fo = options.fit;
+    fo.schedule.progress = chain(fo.schedule.progress, options.progress);
+    const VisibilityLabels labels = visibility_labels(cloud, options, r);
+    QueryNetFitter fitter(cloud, *prior, fo, &labels);
+    if (!fitter.run()) {
+        r.cancelled = true;
+        return Mesh{};
+    }
+    if (options.keep_checkpoints && !ckpt.empty()) fitter.checkpoint(ckpt);
+    r.guided_per_step = fitter.guided_per_step();
+    r.fit_loss = fitter.recent_loss();
+    r.fit_steps = fitter.steps_done();
+    r.seconds_fit = seconds_since(t0);
+
+    Mesh mesh = mesh_stage(fitter, 0, cloud, all_points, subsampled, labels, options, r, normals);
     std::error_code ignored;
     if (!prior_ckpt.empty() && !options.keep_checkpoints) std::filesystem::remove(prior_ckpt, ignored);
     return mesh;
@@ -329,6 +364,87 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     const bool subsampled = subsample.rows() > 0;
     return reconstruct_fit(subsampled ? Eigen::Ref<const Points>(subsample) : points, points, subsampled, prior,
                            options, r, normals);
+}
+
+std::vector<Mesh> reconstruct_many(const std::vector<Points>& clouds, const LocalPrior* prior,
+                                   const ReconstructOptions& options, std::vector<ReconstructReport>* reports) {
+    PCP_CHECK(!clouds.empty(), "reconstruct_many: no cloud given");
+    std::vector<ReconstructReport> local;
+    std::vector<ReconstructReport>& rs = reports ? *reports : local;
+    rs.assign(clouds.size(), ReconstructReport{});
+    if (clouds.size() == 1) {
+        std::vector<Mesh> one;
+        one.push_back(reconstruct(clouds.front(), prior, options, &rs.front()));
+        if (rs.front().cancelled) one.clear();
+        return one;
+    }
+    PCP_CHECK(options.max_fit_points >= 0, "reconstruct: max_fit_points must be >= 0, got " << options.max_fit_points);
+    PCP_CHECK(std::isfinite(options.thin_offset) && options.thin_offset >= 0 && options.thin_offset < 0.1,
+              "reconstruct: thin_offset must be in [0, 0.1) (unit-box units), got " << options.thin_offset);
+    PCP_CHECK(options.fit.ablation == QueryAblation::None && !options.fit.sign_guide.enabled,
+              "reconstruct_many: several clouds are fitted with the method itself only (ablation none, no sign guide)");
+    const int K = static_cast<int>(clouds.size());
+    // Each cloud prepared on its own: subsample (max_fit_points), denoise, unit box, tree.
+    std::vector<Points> subsamples(clouds.size());
+    std::vector<FitInput> inputs;
+    std::vector<const PreparedCloud*> prepared;
+    for (int k = 0; k < K; ++k) {
+        const Points& pts = clouds[static_cast<std::size_t>(k)];
+        ReconstructReport& r = rs[static_cast<std::size_t>(k)];
+        const std::string name = "cloud " + std::to_string(k + 1);
+        r.input_points = pts.rows();
+        if (options.max_fit_points > 0 && pts.rows() > options.max_fit_points) {
+            check_point_cloud(pts, name, min_points_for(options.fit.sampling));
+            subsamples[static_cast<std::size_t>(k)] = random_subset(pts, options.max_fit_points, options.fit.schedule.seed);
+        }
+        const Points& fit_pts = subsamples[static_cast<std::size_t>(k)].rows() > 0 ? subsamples[static_cast<std::size_t>(k)] : pts;
+        inputs.push_back(prepare_input(fit_pts, name, options, r));
+        prepared.push_back(inputs.back().cloud.get());
+    }
+
+    ReconstructReport shared;
+    auto t0 = std::chrono::steady_clock::now();
+    LocalPrior self_prior;
+    const std::string& ckpt = options.fit.schedule.checkpoint_path;
+    const std::string prior_ckpt = ckpt.empty() ? "" : ckpt + ".prior";
+    prior = obtain_prior(prior, prepared, options, prior_ckpt, self_prior, shared);
+    shared.seconds_prior = seconds_since(t0);
+    const auto cancelled = [&]() {
+        for (ReconstructReport& r : rs) r.cancelled = true;
+        return std::vector<Mesh>{};
+    };
+    if (!prior) return cancelled();
+
+    t0 = std::chrono::steady_clock::now();
+    QueryFitOptions fo = options.fit;
+    fo.schedule.progress = chain(fo.schedule.progress, options.progress);
+    QueryNetFitter fitter(prepared, *prior, fo);
+    if (!fitter.run()) return cancelled();
+    if (options.keep_checkpoints && !ckpt.empty()) fitter.checkpoint(ckpt);
+    shared.fit_loss = fitter.recent_loss();
+    shared.fit_steps = fitter.steps_done();
+    shared.seconds_fit = seconds_since(t0);
+
+    std::vector<Mesh> meshes;
+    for (int k = 0; k < K; ++k) {
+        ReconstructReport& r = rs[static_cast<std::size_t>(k)];
+        r.prior_loss = shared.prior_loss;
+        r.seconds_prior = shared.seconds_prior;
+        r.fit_loss = shared.fit_loss;
+        r.fit_steps = shared.fit_steps;
+        r.seconds_fit = shared.seconds_fit;
+        const VisibilityLabels labels = visibility_labels(*prepared[static_cast<std::size_t>(k)], options, r);
+        const bool subsampled = subsamples[static_cast<std::size_t>(k)].rows() > 0;
+        try {
+            meshes.push_back(mesh_stage(fitter, k, *prepared[static_cast<std::size_t>(k)], clouds[static_cast<std::size_t>(k)],
+                                        subsampled, labels, options, r, nullptr));
+        } catch (const Error& e) {
+            PCP_FAIL("cloud " << k + 1 << ": " << e.what());
+        }
+    }
+    std::error_code ignored;
+    if (!prior_ckpt.empty() && !options.keep_checkpoints) std::filesystem::remove(prior_ckpt, ignored);
+    return meshes;
 }
 
 }  // namespace pcp

@@ -69,11 +69,16 @@ std::string to_string(QueryAblation ablation) {
 
 struct QueryNetFitter::Impl {
     QueryFitOptions options;
-    const PreparedCloud* cloud = nullptr;
+    const PreparedCloud* cloud = nullptr;  ///< the first cloud
+    // Several clouds (one-hot codes): the clouds, and where each one's queries start in the pool
+    // (pool_start[k] .. pool_start[k + 1] - 1). One cloud: no codes, pool_start = {0, M}.
+    std::vector<const PreparedCloud*> clouds;
+    std::vector<Eigen::Index> pool_start;
+    int num_codes = 0;      ///< K, Q's code inputs: 0 for one cloud
     detail::CheckpointId checkpoint_id{"pcp-query-net-checkpoint 1", "", "query-network"};  ///< fingerprint: input + prior + settings
     MatF queries, targets;  ///< 3 x M pool
     std::unique_ptr<nn::Stage2Trainer<float>> trainer;
-    MatF q, t, codes;       ///< batch buffers; codes stays 0 x 0 (one cloud, no shape code)
+    MatF q, t, codes;       ///< batch buffers; codes: K x batch one-hot, 0 x 0 for one cloud
     detail::LossWindow recent{100};
     mutable std::vector<std::unique_ptr<nn::GlobalSdfCache<float>>> caches;  ///< one per thread
     nn::Stage2Config config;
@@ -105,6 +110,8 @@ struct QueryNetFitter::Impl {
         for (Eigen::Index i = 0; i < pts.cols(); ++i) dst.col(i) = region_cond.col(region_of(pts.col(i)));
     }
     void prepare_region_conditions(const LocalPrior& prior);
+    void init(const std::vector<const PreparedCloud*>& clouds, const LocalPrior& prior, const QueryFitOptions& options,
+              const VisibilityLabels* labels);
 };
 
 void QueryNetFitter::Impl::prepare_region_conditions(const LocalPrior& prior) {
@@ -140,83 +147,141 @@ void QueryNetFitter::Impl::prepare_region_conditions(const LocalPrior& prior) {
 QueryNetFitter::QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& prior, const QueryFitOptions& options,
                                const VisibilityLabels* labels)
     : impl_(std::make_unique<Impl>()) {
-    Impl& m = *impl_;
-    m.options = options;
-    m.cloud = &cloud;
-    const TrainingSchedule& sched = options.schedule;
-    PCP_CHECK(options.queries_per_step >= 1, "query fitting: queries_per_step must be >= 1");
-    PCP_CHECK(options.width >= 1 && options.depth >= 1, "query fitting: network sizes must be >= 1");
-    PCP_CHECK(cloud.size() >= min_points_for(options.sampling),
-              cloud.name() << ": " << cloud.size() << " points; the query spread needs at least " << min_points_for(options.sampling));
+    impl_->init({&cloud}, prior, options, labels);
+}
+
+QueryNetFitter::QueryNetFitter(const std::vector<const PreparedCloud*>& clouds, const LocalPrior& prior,
+                               const QueryFitOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+    impl_->init(clouds, prior, options, nullptr);
+}
+
+void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_in, const LocalPrior& prior,
+                                const QueryFitOptions& options_in, const VisibilityLabels* labels_in) {
+    Impl& m = *this;
+    m.options = options_in;
+    const QueryFitOptions& opts = m.options;
+    PCP_CHECK(!clouds_in.empty(), "query fitting: no cloud given");
+    for (const PreparedCloud* c : clouds_in) PCP_CHECK(c != nullptr, "query fitting: a null cloud");
+    m.clouds = clouds_in;
+    m.cloud = clouds_in.front();
+    const PreparedCloud& first = *m.cloud;
+    const int K = static_cast<int>(clouds_in.size());
+    m.num_codes = K > 1 ? K : 0;
+    const TrainingSchedule& sched = opts.schedule;
+    PCP_CHECK(opts.queries_per_step >= 1, "query fitting: queries_per_step must be >= 1");
+    PCP_CHECK(opts.width >= 1 && opts.depth >= 1, "query fitting: network sizes must be >= 1");
+    PCP_CHECK(K == 1 || (opts.ablation == QueryAblation::None && !opts.sign_guide.enabled),
+              "query fitting of " << K << " clouds with one-hot codes: only the method itself (ablation none, no sign guide)");
+    for (const PreparedCloud* c : clouds_in)
+        PCP_CHECK(c->size() >= min_points_for(opts.sampling),
+                  c->name() << ": " << c->size() << " points; the query spread needs at least " << min_points_for(opts.sampling));
     {
-        // The pool holds at most the queries the fit draws (SamplingOptions::max_queries).
-        const std::int64_t draws = std::max<std::int64_t>(options.steps, 1) * options.queries_per_step;
-        const QuerySet set = sample_queries(cloud.tree(), capped_at_draws(options.sampling, draws), sched.seed);
-        m.queries = set.queries.transpose();
-        m.targets = set.targets.transpose();
+        // The pool holds at most the queries the fit draws (SamplingOptions::max_queries); with
+        // several clouds each holds at most its equal share of them.
+        const std::int64_t draws = std::max<std::int64_t>(opts.steps, 1) * opts.queries_per_step;
+        std::vector<QuerySet> sets;
+        Eigen::Index total = 0;
+        m.pool_start.assign(1, 0);
+        for (int k = 0; k < K; ++k) {
+            const std::int64_t share = (draws + K - 1) / K;
+            // Cloud 0 keeps the single-cloud seed, so that one cloud is exactly the single-cloud fit.
+            const std::uint64_t seed = sched.seed + 0x9E3779B97F4A7C15ull * static_cast<std::uint64_t>(k);
+            sets.push_back(sample_queries(clouds_in[static_cast<std::size_t>(k)]->tree(),
+                                          capped_at_draws(opts.sampling, share), seed));
+            total += sets.back().queries.rows();
+            m.pool_start.push_back(total);
+        }
+        if (K == 1) {
+            m.queries = sets[0].queries.transpose();
+            m.targets = sets[0].targets.transpose();
+        } else {
+            m.queries.resize(3, total);
+            m.targets.resize(3, total);
+            for (int k = 0; k < K; ++k) {
+                const Eigen::Index n = m.pool_start[static_cast<std::size_t>(k) + 1] - m.pool_start[static_cast<std::size_t>(k)];
+                m.queries.middleCols(m.pool_start[static_cast<std::size_t>(k)], n) = sets[static_cast<std::size_t>(k)].queries.transpose();
+                m.targets.middleCols(m.pool_start[static_cast<std::size_t>(k)], n) = sets[static_cast<std::size_t>(k)].targets.transpose();
+            }
+        }
     }
-    if (options.sign_guide.enabled) {
-        const SignGuideOptions& g = options.sign_guide;
+    if (opts.sign_guide.enabled) {
+        const SignGuideOptions& g = opts.sign_guide;
         PCP_CHECK(g.fraction > 0.0 && g.fraction <= 1.0 && g.weight > 0.0 && std::isfinite(g.weight) && g.until > 0.0 &&
                       g.until <= 1.0,
                   "query fitting: sign guide fraction and until must be in (0, 1], weight > 0");
-        m.labels = labels ? *labels : label_by_visibility(cloud.tree(), g.visibility);
+        m.labels = labels_in ? *labels_in : label_by_visibility(first.tree(), g.visibility);
         if (!m.labels.inside_cells.empty() || !m.labels.outside_cells.empty())
-            m.guided = std::max(1, static_cast<int>(std::lround(g.fraction * options.queries_per_step)));
+            m.guided = std::max(1, static_cast<int>(std::lround(g.fraction * opts.queries_per_step)));
     }
-    m.config = stage2_config(options.ablation);
+    m.config = stage2_config(opts.ablation);
     const int C = prior.decoder().shape.in_b;
-    nn::BranchMlp<float> query_net(nn::stage2_query_shape(m.config, C, options.width, options.depth));
+    nn::BranchMlp<float> query_net(nn::stage2_query_shape(m.config, C, opts.width, opts.depth, m.num_codes));
     nn::Rng rng(sched.seed, 202);
     // Rows 0..2 are the shift only when Q predicts one (not for no-shift, where they are f', nor
     // for direct, where q_l' itself is predicted: see QueryAblation).
-    nn::init_query_net(query_net, rng, options.zero_shift_init && m.config.point == nn::QueryPoint::Shift);
+    nn::init_query_net(query_net, rng, opts.zero_shift_init && m.config.point == nn::QueryPoint::Shift);
     nn::BranchMlp<float> decoder = prior.decoder();
-    if (options.ablation == QueryAblation::NoPrior) {
+    if (opts.ablation == QueryAblation::NoPrior) {
         nn::Rng frng(sched.seed, 203);
         nn::init_decoder_geometric(decoder, frng);
     }
-    if (options.ablation == QueryAblation::PointNetCode) {
+    if (opts.ablation == QueryAblation::PointNetCode) {
         m.prepare_region_conditions(prior);
-        m.cond.resize(C, options.queries_per_step + m.guided);
+        m.cond.resize(C, opts.queries_per_step + m.guided);
     }
-    m.trainer = std::make_unique<nn::Stage2Trainer<float>>(query_net, decoder, options.queries_per_step + m.guided,
-                                                           detail::make_optim(sched, options.steps), m.config);
-    m.trainer->workspace.guide_weight = static_cast<float>(options.sign_guide.weight);
-    if (options.ablation == QueryAblation::FreeCode) {  // DeepSDF's code initialisation, N(0, 1/C)
+    m.trainer = std::make_unique<nn::Stage2Trainer<float>>(query_net, decoder, opts.queries_per_step + m.guided,
+                                                           detail::make_optim(sched, opts.steps), m.config);
+    m.trainer->workspace.guide_weight = static_cast<float>(opts.sign_guide.weight);
+    if (opts.ablation == QueryAblation::FreeCode) {  // DeepSDF's code initialisation, N(0, 1/C)
         nn::Rng crng(sched.seed, 204);
         for (Eigen::Index i = 0; i < m.trainer->code.size(); ++i)
             m.trainer->code(i) = static_cast<float>(crng.normal(0.0, 1.0 / std::sqrt(static_cast<double>(C))));
     }
     {
         std::ostringstream fp;
-        fp << "ablation=" << to_string(options.ablation) << " width=" << options.width << " depth=" << options.depth << " batch=" << options.queries_per_step
-           << " steps=" << options.steps << " lr=" << sched.learning_rate << " schedule=" << static_cast<int>(sched.lr_schedule)
+        fp << "ablation=" << to_string(opts.ablation) << " width=" << opts.width << " depth=" << opts.depth << " batch=" << opts.queries_per_step
+           << " steps=" << opts.steps << " lr=" << sched.learning_rate << " schedule=" << static_cast<int>(sched.lr_schedule)
            << " warmup=" << sched.warmup_steps << " clip=" << sched.clip_norm << " seed=" << sched.seed
-           << " qpp=" << options.sampling.queries_per_point << " spreads=";
-        for (float x : options.sampling.spreads) fp << x << ",";
-        fp << " uniform=" << options.sampling.uniform_fraction << "/"
-           << options.sampling.uniform_margin << " points=" << cloud.size();
+           << " qpp=" << opts.sampling.queries_per_point << " spreads=";
+        for (float x : opts.sampling.spreads) fp << x << ",";
+        fp << " uniform=" << opts.sampling.uniform_fraction << "/"
+           << opts.sampling.uniform_margin << " points=" << first.size();
         if (m.guided > 0) {
-            const SignGuideOptions& g = options.sign_guide;
+            const SignGuideOptions& g = opts.sign_guide;
             const VisibilityOptions& v = g.visibility;
             fp << " guide=" << g.fraction << "/" << g.weight << "/" << g.until << "/" << v.margin << "/" << v.resolution << "/"
                << v.occupancy_resolution << "/" << v.dilation << "/" << v.min_distance << "/" << v.rays << "/"
                << v.outside_fraction;
         }
+        if (K > 1) {
+            fp << " clouds=" << K << " points=";
+            for (const PreparedCloud* c : clouds_in) fp << c->size() << ",";
+        }
         fp << std::hex
-           << " data=" << nn::fnv1a64(cloud.unit().data(), static_cast<std::size_t>(cloud.unit().size()) * sizeof(float))
+           << " data=" << nn::fnv1a64(first.unit().data(), static_cast<std::size_t>(first.unit().size()) * sizeof(float));
+        for (int k = 1; k < K; ++k) {
+            const PointsF& u = clouds_in[static_cast<std::size_t>(k)]->unit();
+            fp << "," << nn::fnv1a64(u.data(), static_cast<std::size_t>(u.size()) * sizeof(float));
+        }
+        fp
            << " prior=" << nn::fnv1a64(prior.decoder().params.data(), static_cast<std::size_t>(prior.decoder().params.size()) * sizeof(float));
         m.checkpoint_id.fingerprint = fp.str();
     }
-    m.q.resize(3, options.queries_per_step + m.guided);
-    m.t.setZero(3, options.queries_per_step + m.guided);
+    m.q.resize(3, opts.queries_per_step + m.guided);
+    m.t.setZero(3, opts.queries_per_step + m.guided);
+    if (K > 1) m.codes.setZero(K, opts.queries_per_step);
 }
 
 QueryNetFitter::~QueryNetFitter() = default;
 
 std::int64_t QueryNetFitter::steps_done() const { return impl_->trainer->steps; }
 const PreparedCloud& QueryNetFitter::cloud() const { return *impl_->cloud; }
+const PreparedCloud& QueryNetFitter::cloud(int index) const {
+    PCP_CHECK(index >= 0 && index < num_clouds(), "query fitting: no cloud " << index << " (" << num_clouds() << " fitted)");
+    return *impl_->clouds[static_cast<std::size_t>(index)];
+}
+int QueryNetFitter::num_clouds() const { return static_cast<int>(impl_->clouds.size()); }
 double QueryNetFitter::recent_loss() const { return impl_->recent.mean(); }
 int QueryNetFitter::guided_per_step() const { return impl_->guided; }
 std::int64_t QueryNetFitter::pool_size() const { return impl_->queries.cols(); }
@@ -225,8 +290,21 @@ double QueryNetFitter::step() {
     Impl& m = *impl_;
     const std::int64_t s = m.trainer->steps;
     const Eigen::Index batch = m.options.queries_per_step;
-    detail::draw_batch(m.queries, m.targets, Rng(m.options.schedule.seed ^ 0x5EED0003ull, static_cast<std::uint64_t>(s)),
-                       m.q.leftCols(batch), m.t.leftCols(batch));
+    if (m.num_codes == 0) {
+        detail::draw_batch(m.queries, m.targets, Rng(m.options.schedule.seed ^ 0x5EED0003ull, static_cast<std::uint64_t>(s)),
+                           m.q.leftCols(batch), m.t.leftCols(batch));
+    } else {  // a cloud per query in equal shares, then one of its queries; its one-hot code
+        Rng rng(m.options.schedule.seed ^ 0x5EED0003ull, static_cast<std::uint64_t>(s));
+        m.codes.setZero();
+        for (Eigen::Index c = 0; c < batch; ++c) {
+            const auto k = static_cast<std::size_t>(rng.below(static_cast<std::uint64_t>(m.num_codes)));
+            const Eigen::Index j = m.pool_start[k] + static_cast<Eigen::Index>(rng.below(
+                                                         static_cast<std::uint64_t>(m.pool_start[k + 1] - m.pool_start[k])));
+            m.q.col(c) = m.queries.col(j);
+            m.t.col(c) = m.targets.col(j);
+            m.codes(static_cast<Eigen::Index>(k), c) = 1.0f;
+        }
+    }
     const bool guiding = m.guided > 0 && static_cast<double>(s) < m.options.sign_guide.until * static_cast<double>(m.options.steps);
     const Eigen::Index cols = batch + (guiding ? m.guided : 0);
     m.trainer->workspace.guided = 0;
@@ -255,8 +333,14 @@ bool QueryNetFitter::run() {
 }
 
 void QueryNetFitter::sdf(const Eigen::Ref<const PointsF>& unit_points, Eigen::Ref<Eigen::VectorXf> values) const {
+    PCP_CHECK(num_clouds() == 1, "query net sdf: " << num_clouds() << " clouds were fitted; say which one");
+    sdf(0, unit_points, values);
+}
+
+void QueryNetFitter::sdf(int index, const Eigen::Ref<const PointsF>& unit_points, Eigen::Ref<Eigen::VectorXf> values) const {
     const Impl& m = *impl_;
     PCP_CHECK(values.size() == unit_points.rows(), "query net sdf: size mismatch");
+    PCP_CHECK(index >= 0 && index < num_clouds(), "query net sdf: no cloud " << index << " (" << num_clouds() << " fitted)");
     const int threads = omp_get_max_threads();
     if (static_cast<int>(m.caches.size()) < threads) {
 #pragma omp critical(pcp_sdf_caches)
@@ -276,7 +360,11 @@ void QueryNetFitter::sdf(const Eigen::Ref<const PointsF>& unit_points, Eigen::Re
         MatF copy;
         if (!contiguous) copy = unit_points.middleRows(start, len).transpose();
         const Eigen::Map<const MatF> q(contiguous ? unit_points.data() + 3 * start : copy.data(), 3, len);
-        if (m.config.condition == nn::QueryCondition::Given) {
+        if (m.num_codes > 0) {  // cloud `index`'s one-hot code
+            MatF codes = MatF::Zero(m.num_codes, len);
+            codes.row(index).setOnes();
+            values.segment(start, len) = nn::global_sdf_eval<float>(tr.query_net, tr.decoder, q, codes, code, m.config, cache).transpose();
+        } else if (m.config.condition == nn::QueryCondition::Given) {
             if (cache.cond.cols() < kEvalBatch) cache.cond.resize(m.region_cond.rows(), kEvalBatch);
             m.gather_conditions(q, cache.cond.leftCols(len));
             values.segment(start, len) =

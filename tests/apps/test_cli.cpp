@@ -552,3 +552,49 @@ TEST_CASE("cli: pcp_demo2d writes the figure's pictures; usage errors exit 2, an
     CHECK(blocked.err.find("a_file") != std::string::npos);
     CHECK(std::count(blocked.err.begin(), blocked.err.end(), '\n') == 1);
 }
+
+TEST_CASE("cli: pcp_reconstruct with several inputs fits them together and writes one mesh each into --output-dir", "[cli]") {
+    const fs::path dir = case_dir("many");
+    fs::create_directories(dir / "a");
+    fs::create_directories(dir / "b");
+    write_text(dir / "a" / "input.xyz", xyz_lines(pcp::sample_sphere(1500, 1.0, Eigen::Vector3d::Zero(), 6).points));
+    write_text(dir / "b" / "input.xyz", xyz_lines(pcp::sample_torus(1500, 0.35, 0.12, 7).points));
+    const std::string a = "'" + (dir / "a" / "input.xyz").string() + "' ", b = "'" + (dir / "b" / "input.xyz").string() + "' ";
+    const std::string quick = " --preset fast --steps 40 --prior-steps 20 --prior-grid 2 --resolution 24 --threads 1";
+    const fs::path out = dir / "out";
+
+    // Same file names in two directories: DIR/<directory>_<name>.ply.
+    const RunResult ok = run(bin("pcp_reconstruct") + " " + a + b + "--output-dir '" + out.string() + "'" + quick);
+    INFO("stderr: " << ok.err);
+    CHECK(ok.exit_code == 0);
+    CHECK(fs::exists(out / "a_input.ply"));
+    CHECK(fs::exists(out / "b_input.ply"));
+    CHECK(!fs::exists(out / "pcp_many.ckpt"));  // removed unless --keep-checkpoint
+    CHECK(ok.err.find("a_input.ply") != std::string::npos);
+
+    // A list file works the same.
+    write_text(dir / "list.txt", "# two clouds\na/input.xyz\n\nb/input.xyz\n");
+    const RunResult listed = run(bin("pcp_reconstruct") + " --list '" + (dir / "list.txt").string() + "' --output-dir '" +
+                                 (dir / "out2").string() + "'" + quick);
+    INFO("stderr: " << listed.err);
+    CHECK(listed.exit_code == 0);
+    CHECK(fs::exists(dir / "out2" / "b_input.ply"));
+
+    // Usage errors before any work: no --output-dir, -o with it, --normals, an ablation.
+    const RunResult no_dir = run(bin("pcp_reconstruct") + " " + a + b + quick);
+    CHECK(no_dir.exit_code == 2);
+    CHECK(no_dir.err.find("--output-dir") != std::string::npos);
+    CHECK(run(bin("pcp_reconstruct") + " " + a + b + "-o x.ply --output-dir '" + out.string() + "'" + quick).exit_code == 2);
+    CHECK(run(bin("pcp_reconstruct") + " " + a + b + "--normals n.ply --output-dir '" + out.string() + "'" + quick).exit_code == 2);
+    CHECK(run(bin("pcp_reconstruct") + " " + a + b + "--ablation no-shift --output-dir '" + out.string() + "'" + quick).exit_code == 2);
+
+    // A missing input: exit 1, one line naming it, nothing written.
+    const fs::path out3 = dir / "out3";
+    const RunResult missing = run(bin("pcp_reconstruct") + " " + a + "'" + (dir / "missing.xyz").string() + "' --output-dir '" +
+                                  out3.string() + "'" + quick);
+    INFO("stderr: " << missing.err);
+    CHECK(missing.exit_code == 1);
+    CHECK(missing.err.find("missing.xyz") != std::string::npos);
+    CHECK(std::count(missing.err.begin(), missing.err.end(), '\n') == 1);
+    CHECK(!fs::exists(out3 / "a_input.ply"));
+}

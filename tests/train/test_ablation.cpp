@@ -204,3 +204,73 @@ TEST_CASE("query fit: the query pool holds at most the queries the steps draw", 
     o.sampling.max_queries = 5000;  // a smaller cap of the caller's wins
     CHECK(pcp::QueryNetFitter(torus(), toy_prior(), o).pool_size() == 5000);
 }
+
+namespace {
+
+const pcp::PreparedCloud& sphere() {
+    static const pcp::PreparedCloud cloud(pcp::sample_sphere(1500, 0.4, Eigen::Vector3d(2, 0, 0), 4).points, "sphere", 1);
+    return cloud;
+}
+
+Eigen::VectorXf field_at(const pcp::QueryNetFitter& fitter, int index, const pcp::PreparedCloud& at) {
+    Eigen::VectorXf v(at.size());
+    fitter.sdf(index, at.unit(), v);
+    return v;
+}
+
+}  // namespace
+
+TEST_CASE("query fit of several clouds: one is the single-cloud fit, two share Q through one-hot codes", "[ablation]") {
+    const ThreadsGuard one_thread(1);  // bit-for-bit comparisons
+    // One cloud given as a list: exactly the single-cloud fitter (no code branch, same pool).
+    pcp::QueryNetFitter single(torus(), toy_prior(), toy_fit(QueryAblation::None, 20));
+    pcp::QueryNetFitter listed(std::vector<const pcp::PreparedCloud*>{&torus()}, toy_prior(), toy_fit(QueryAblation::None, 20));
+    CHECK(listed.num_clouds() == 1);
+    CHECK(listed.pool_size() == single.pool_size());
+    for (int s = 0; s < 20; ++s) CHECK(listed.step() == single.step());
+    CHECK(field_at(listed, 0, torus()) == field_at(single, 0, torus()));
+
+    // Two clouds: the pool holds each one's share of the draws (40 x 200 / 2 = 4000 each).
+    const std::vector<const pcp::PreparedCloud*> both{&torus(), &sphere()};
+    CHECK(pcp::QueryNetFitter(both, toy_prior(), toy_fit(QueryAblation::None, 40)).pool_size() == 8000);
+    pcp::QueryNetFitter two(both, toy_prior(), toy_fit(QueryAblation::None, 300));
+    REQUIRE(two.num_clouds() == 2);
+    CHECK(&two.cloud(1) == &sphere());
+    const double torus0 = field_at(two, 0, torus()).cwiseAbs().mean(), sphere0 = field_at(two, 1, sphere()).cwiseAbs().mean();
+    REQUIRE(two.run());
+    const double torus1 = field_at(two, 0, torus()).cwiseAbs().mean(), sphere1 = field_at(two, 1, sphere()).cwiseAbs().mean();
+    INFO("mean |F_g| on its own cloud: torus " << torus0 << " -> " << torus1 << ", sphere " << sphere0 << " -> " << sphere1);
+    CHECK(torus1 < 0.5 * torus0);
+    CHECK(sphere1 < 0.5 * sphere0);
+    // The code selects the shape: the sphere's field is far from zero on the torus, and back.
+    const double cross_torus = field_at(two, 1, torus()).cwiseAbs().mean();
+    const double cross_sphere = field_at(two, 0, sphere()).cwiseAbs().mean();
+    INFO("cross: sphere's field on the torus " << cross_torus << ", torus's field on the sphere " << cross_sphere);
+    CHECK(cross_torus > 3 * torus1);
+    CHECK(cross_sphere > 3 * sphere1);
+
+    // Resume: 20 steps, checkpoint, 20 more in a new fitter = 40 straight.
+    const std::string ckpt = (std::filesystem::path(PCP_TEST_TMP_DIR) / "several_clouds.ckpt").string();
+    pcp::QueryNetFitter straight(both, toy_prior(), toy_fit(QueryAblation::None, 40));
+    for (int s = 0; s < 40; ++s) straight.step();
+    pcp::QueryNetFitter first(both, toy_prior(), toy_fit(QueryAblation::None, 40));
+    for (int s = 0; s < 20; ++s) first.step();
+    first.checkpoint(ckpt);
+    pcp::QueryNetFitter second(both, toy_prior(), toy_fit(QueryAblation::None, 40));
+    second.resume(ckpt);
+    while (second.steps_done() < 40) second.step();
+    CHECK(field_at(second, 1, sphere()) == field_at(straight, 1, sphere()));
+    // A checkpoint of the two clouds does not resume a fit of one of them.
+    pcp::QueryNetFitter other(torus(), toy_prior(), toy_fit(QueryAblation::None, 40));
+    CHECK_THROWS_AS(other.resume(ckpt), pcp::Error);
+    std::filesystem::remove(ckpt);
+
+    // Misuse is refused: no cloud index with two clouds, an index out of range, an ablation.
+    Eigen::VectorXf v(torus().size());
+    CHECK_THROWS_WITH(two.sdf(torus().unit(), v), Catch::Contains("say which one"));
+    CHECK_THROWS_AS(two.sdf(2, torus().unit(), v), pcp::Error);
+    CHECK_THROWS_WITH(pcp::QueryNetFitter(both, toy_prior(), toy_fit(QueryAblation::FreeCode, 10)),
+                      Catch::Contains("ablation none"));
+    CHECK_THROWS_AS(pcp::QueryNetFitter(std::vector<const pcp::PreparedCloud*>{}, toy_prior(), toy_fit(QueryAblation::None, 10)),
+                    pcp::Error);
+}

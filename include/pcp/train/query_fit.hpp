@@ -88,6 +88,15 @@ public:
     ///                    computed here with options.sign_guide.visibility when the guide is on.
     QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& prior, const QueryFitOptions& options,
                    const VisibilityLabels* labels = nullptr);
+    /// Several clouds, one query network (paper, "Optimization": multiple point clouds with one-hot
+    /// vectors as the condition of each q_g): Q(q_g, e_k) for the queries of cloud k, each cloud in
+    /// its own unit box. Each step draws its queries from the clouds in equal shares (a cloud per
+    /// query, uniformly; then one of its pool's queries); each cloud's pool holds at most its share
+    /// of the draws. One cloud is exactly the single-cloud fitter (no code branch). With several,
+    /// only the method (ablation none) and no sign guide: refused otherwise.
+    /// @param[in] clouds  prepared clouds (at least one, none null); they must outlive the fitter.
+    QueryNetFitter(const std::vector<const PreparedCloud*>& clouds, const LocalPrior& prior,
+                   const QueryFitOptions& options);
     ~QueryNetFitter();
 
     /// Steps until done or cancelled (false); first continues from the checkpoint when
@@ -102,8 +111,12 @@ public:
 
     /// The global SDF at `unit_points` (N x 3, unit box). Thread-safe; OpenMP-parallel over batches.
     void sdf(const Eigen::Ref<const PointsF>& unit_points, Eigen::Ref<Eigen::VectorXf> values) const;
+    /// The global SDF of cloud `index` (its one-hot code) at points of its unit box.
+    void sdf(int index, const Eigen::Ref<const PointsF>& unit_points, Eigen::Ref<Eigen::VectorXf> values) const;
 
-    const PreparedCloud& cloud() const;
+    const PreparedCloud& cloud() const;  ///< the first cloud
+    const PreparedCloud& cloud(int index) const;
+    int num_clouds() const;
     /// Guided queries per step (0: the guide is off or labelled nothing).
     int guided_per_step() const;
     /// Queries in the pool the steps draw from: at most steps x queries_per_step (SamplingOptions::max_queries).
