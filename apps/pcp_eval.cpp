@@ -458,6 +458,8 @@ int main(int argc, char** argv) {
             row(name.c_str(), r.metrics.fscores[i].fscore, floor ? r.floor.fscores[i].fscore : 0.0);
         }
         if (gt.is_mesh) row("scene error", r.scene_error, 0.0);
+        // The DeepLS table's unit (scene protocol: metres in, millimetres out).
+        if (gt.is_mesh && opts.protocol == pcp::EvalProtocol::Scene) row("scene error (mm)", 1000.0 * r.scene_error, 0.0);
         if (sdf) {
             std::cout << "\nsign agreement with " << sdf_path << " (" << sdf->convention << "): " << sdf->result.agree << " of "
                       << sdf->result.samples << " = " << sdf->result.fraction() << "\n| abs(sdf) from | to | samples | agreement |\n|---|---|---|---|\n";

@@ -102,7 +102,7 @@ int run_many(const cxxopts::ParseResult& args, pcp::ReconstructOptions o, const 
                              " points (one query network, a one-hot code per cloud)"},
               {"output directory", output_dir},
               {"prior", !prior_path.empty() ? prior_path : "self-prior on all inputs"},
-              {"preset", args["preset"].as<std::string>()},
+              {"preset", args.count("scene") ? std::string("scene") : args["preset"].as<std::string>()},
               {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step) +
                                               " (shared: about " + std::to_string(o.fit.steps * o.fit.queries_per_step /
                                                                                   static_cast<std::int64_t>(inputs.size())) +
@@ -176,7 +176,9 @@ int main(int argc, char** argv) {
                              "turned to the mesh's side; or the PCA normal oriented by the fitted field's own votes",
              cxxopts::value<std::string>()->default_value(pcp::to_string(d.normal_source)))
             ("prior", "A prior trained by pcp_train (default: learn a self-prior on the input)", cxxopts::value<std::string>()->default_value(""))
-            ("preset", "paper | default | fast (explicit options below override it)", cxxopts::value<std::string>()->default_value("default"))
+            ("preset", "paper | default | fast | scene (explicit options below override it)", cxxopts::value<std::string>()->default_value("default"))
+            ("scene", "Scene mode, the same as --preset scene: a room or other open surfaces, 512 cells, faces kept only "
+                      "where the data supports them (open where the data ends), no repairs that close or flip surfaces")
             ("ascii", "Write an ascii .ply")
             ("resume", "Continue the query-network stage from OUT.ckpt")
             ("builtin-points", "Points sampled on the embedded default shape", cxxopts::value<long>()->default_value(std::to_string(builtin_defaults.points)))
@@ -268,7 +270,9 @@ int main(int argc, char** argv) {
 
         pcp::ReconstructOptions o;
         try {
-            o = pcp::ReconstructOptions::preset(args["preset"].as<std::string>());
+            if (args.count("scene") && args.count("preset") && args["preset"].as<std::string>() != "scene")
+                throw pcp::cli::UsageError("--scene is --preset scene; it does not go with --preset " + args["preset"].as<std::string>());
+            o = pcp::ReconstructOptions::preset(args.count("scene") ? "scene" : args["preset"].as<std::string>());
         } catch (const pcp::Error& e) {
             throw pcp::cli::UsageError(e.what());
         }
@@ -460,7 +464,7 @@ int main(int argc, char** argv) {
                                                                                   : std::to_string(o.self_prior.epochs) + " epochs") +
                                                               ", " + std::to_string(o.self_prior.regions.grid) + "^3 grid, normalization " +
                                                               pcp::to_string(o.self_prior.regions.normalization) + ")"},
-                                              {"preset", args["preset"].as<std::string>()},
+                                              {"preset", args.count("scene") ? std::string("scene") : args["preset"].as<std::string>()},
                                               {"denoise", o.denoise.automatic    ? "auto, " + std::to_string(o.denoise.neighbors) + " neighbours"
                                                           : o.denoise.passes > 0 ? std::to_string(o.denoise.passes) + " passes, " +
                                                                                        std::to_string(o.denoise.neighbors) + " neighbours"
@@ -527,7 +531,9 @@ int main(int argc, char** argv) {
           << ", fine repair flipped " << report.fine_repair.flipped_components << " of " << report.fine_repair.components
           << " thin regions" << (report.fine_repair.skipped ? " (skipped: grid too large)" : "")
           << ", surface fit removed " << report.surface_fit.removed_components << " of " << report.surface_fit.components
-          << " components (no input points near them)" << (report.smoothed ? ", smoothed" : "");
+          << " components (no input points near them)" << (report.smoothed ? ", smoothed" : "")
+          << (o.scene.enabled ? ", scene mode removed " + std::to_string(report.scene_trimmed) + " faces with no data near them"
+                              : std::string());
         log.info(s.str());
         const double total_s = pcp::cli::seconds_since(t_start);
         pcp::cli::print_stage_table(

@@ -15,6 +15,7 @@
 #include "pcp/cloud/prepared_cloud.hpp"
 #include "pcp/cloud/regions.hpp"
 #include "pcp/cloud/sampling.hpp"
+#include "pcp/cloud/room.hpp"
 #include "pcp/cloud/shapes.hpp"
 
 #include "pcp/train/prior.hpp"

@@ -25,6 +25,17 @@
 
 namespace pcp {
 
+/// The scene mode (paper, "Surface Reconstruction for Scenes"; not its method, which meshes the
+/// closed zero set): rooms are open -- walls seen from one side, floors without an underside, data
+/// ending at doors and wall tops -- and a signed field closes every surface. In scene mode the
+/// mesh keeps only the faces the data supports (pcp::trim_unsupported_faces): the closing hull and
+/// the sheets where there is no data go, the open boundaries stay open. The preset "scene" turns it
+/// on with the settings measured for rooms (docs/BENCHMARKS.md, "Scenes").
+struct SceneOptions {
+    bool enabled = false;
+    double support_k = 1.0;  ///< a face stays when an input point lies within support_k x the sampling scale of its centroid
+};
+
 struct ReconstructOptions {
     DenoiseOptions denoise;          ///< optional plane-projection denoising of the input (off; not in the paper)
     PriorTrainOptions self_prior = PriorTrainOptions::preset("fast");  ///< used when no prior is given
@@ -50,6 +61,7 @@ struct ReconstructOptions {
     FineRepairOptions fine_repair;   ///< the sign repair's rule on the fine grid, for thin membranes (not in the paper)
     SurfaceFitOptions surface_fit;   ///< support filter and fit of the mesh onto the data (not in the paper)
     SmoothOptions smoothing;         ///< bilateral smoothing of the final mesh, of noisy clouds by default (not in the paper)
+    SceneOptions scene;              ///< open surfaces where the data ends (rooms); off except in the "scene" preset
     /// The oriented normals of the input points, when asked for (not in the paper): read off the
     /// final mesh at the nearest point (Mesh), the PCA normals oriented by it (PcaByMesh), or the
     /// PCA normals oriented by the fitted field's own votes (Field, pcp/mesh/field_normals.hpp).
@@ -71,7 +83,7 @@ struct ReconstructOptions {
     Eigen::Index max_fit_points = 1000000;
     ProgressCallback progress;       ///< forwarded to every stage ("prior", "query-net", "sdf-grid")
 
-    /// Named presets: "paper", "default", "fast". Throws pcp::Error for other names.
+    /// Named presets: "paper", "default", "fast", "scene". Throws pcp::Error for other names.
     static ReconstructOptions preset(const std::string& name);
 };
 
@@ -93,6 +105,7 @@ struct ReconstructReport {
     SignRepairStats sign_repair;
     bool sign_flipped = false;       ///< the fitted SDF was negated so that the outside is positive
     bool closed = false;             ///< every edge of the mesh is shared by exactly two faces
+    std::int64_t scene_trimmed = 0;  ///< faces the scene mode removed (no data near them)
     bool cancelled = false;
     std::int64_t input_points = 0;   ///< points given
     std::int64_t fit_points = 0;     ///< points the fit used (fewer than input_points above ReconstructOptions::max_fit_points)

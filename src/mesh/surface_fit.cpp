@@ -237,4 +237,39 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
     return mesh;
 }
 
+Mesh trim_unsupported_faces(const Mesh& unit_mesh, const KdTree& cloud, double radius, std::int64_t* removed) {
+    PCP_CHECK(radius > 0 && std::isfinite(radius), "trim_unsupported_faces: radius must be > 0, got " << radius);
+    const Eigen::Index F = unit_mesh.faces.rows(), V = unit_mesh.vertices.rows();
+    PCP_CHECK(F == 0 || (unit_mesh.faces.minCoeff() >= 0 && unit_mesh.faces.maxCoeff() < V),
+              "trim_unsupported_faces: a face index is out of range");
+    PointsF centroids(F, 3);
+    for (Eigen::Index f = 0; f < F; ++f)
+        centroids.row(f) = ((unit_mesh.vertices.row(unit_mesh.faces(f, 0)) + unit_mesh.vertices.row(unit_mesh.faces(f, 1)) +
+                             unit_mesh.vertices.row(unit_mesh.faces(f, 2))) /
+                            3.0)
+                               .cast<float>();
+    Eigen::VectorXf distance(F);
+    if (F > 0) cloud.nearest(centroids, &distance);
+    std::vector<int> new_index(static_cast<std::size_t>(V), -1);
+    std::vector<Eigen::Index> kept_faces;
+    for (Eigen::Index f = 0; f < F; ++f)
+        if (static_cast<double>(distance(f)) <= radius) kept_faces.push_back(f);
+    Mesh out;
+    int next = 0;
+    for (Eigen::Index f : kept_faces)
+        for (int c = 0; c < 3; ++c) {
+            int& id = new_index[static_cast<std::size_t>(unit_mesh.faces(f, c))];
+            if (id < 0) id = next++;
+        }
+    out.vertices.resize(next, 3);
+    for (Eigen::Index v = 0; v < V; ++v)
+        if (new_index[static_cast<std::size_t>(v)] >= 0) out.vertices.row(new_index[static_cast<std::size_t>(v)]) = unit_mesh.vertices.row(v);
+    out.faces.resize(static_cast<Eigen::Index>(kept_faces.size()), 3);
+    for (std::size_t k = 0; k < kept_faces.size(); ++k)
+        for (int c = 0; c < 3; ++c)
+            out.faces(static_cast<Eigen::Index>(k), c) = new_index[static_cast<std::size_t>(unit_mesh.faces(kept_faces[k], c))];
+    if (removed) *removed = F - static_cast<std::int64_t>(kept_faces.size());
+    return out;
+}
+
 }  // namespace pcp

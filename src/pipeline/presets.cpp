@@ -43,7 +43,22 @@ ReconstructOptions ReconstructOptions::preset(const std::string& name) {
         o.resolution = 96;
         return o;
     }
-    PCP_FAIL("unknown reconstruction preset '" << name << "' (use paper, default or fast)");
+    if (name == "scene") {
+        // Rooms (ReconstructOptions::scene): the default preset's networks, the paper's 512 cells,
+        // faces kept only where the data supports them, and none of the repairs that assume a
+        // closed object (they would close or flip the open room): sign repair, cavity fill, fine
+        // repair, thin offset. Measured on the generated room and the living-room fragment
+        // (docs/BENCHMARKS.md, "Scenes").
+        o = preset("default");
+        o.scene.enabled = true;
+        o.resolution = 512;
+        o.sign_repair.enabled = false;
+        o.cavity_fill.enabled = false;
+        o.fine_repair.enabled = false;
+        o.thin_offset = 0;
+        return o;
+    }
+    PCP_FAIL("unknown reconstruction preset '" << name << "' (use paper, default, fast or scene)");
 }
 
 }  // namespace pcp

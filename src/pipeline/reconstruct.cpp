@@ -49,6 +49,39 @@ PointsF box_boundary_samples(const Aabb& box, int per_axis) {
     return out;
 }
 
+/// Scenes (ReconstructOptions::scene): the free space the scanner stood in is the bulk of the
+/// cloud's box away from the data (a room's interior; the box hugs the walls). The lattice points of
+/// the box (per_axis^3) farther than 4 x the sampling scale from every input point; the fitted field
+/// is made positive there (normals towards the free space, faces seen from the scanner's side). The
+/// box boundary instead when none is that far.
+PointsF scene_free_space_samples(const PreparedCloud& cloud, int per_axis) {
+    const PointsF& unit = cloud.unit();
+    const Eigen::RowVector3f lo = unit.colwise().minCoeff(), hi = unit.colwise().maxCoeff();
+    PointsF lattice(static_cast<Eigen::Index>(per_axis) * per_axis * per_axis, 3);
+    Eigen::Index n = 0;
+    for (int i = 0; i < per_axis; ++i)
+        for (int j = 0; j < per_axis; ++j)
+            for (int k = 0; k < per_axis; ++k) {
+                const Eigen::RowVector3f t((i + 0.5f) / static_cast<float>(per_axis), (j + 0.5f) / static_cast<float>(per_axis),
+                                           (k + 0.5f) / static_cast<float>(per_axis));
+                lattice.row(n++) = lo + t.cwiseProduct(hi - lo);
+            }
+    Eigen::VectorXf distance;
+    cloud.tree().nearest(lattice, &distance);
+    const float far = static_cast<float>(4.0 * sampling_scale(cloud.tree()));
+    PointsF out((distance.array() > far).count(), 3);
+    Eigen::Index m = 0;
+    for (Eigen::Index i = 0; i < lattice.rows(); ++i)
+        if (distance(i) > far) out.row(m++) = lattice.row(i);
+    if (out.rows() == 0) {
+        Aabb box;
+        box.min = lo.transpose().cast<double>();
+        box.max = hi.transpose().cast<double>();
+        return box_boundary_samples(box, 12);
+    }
+    return out;
+}
+
 ProgressCallback chain(const ProgressCallback& a, const ProgressCallback& b) {
     if (!a) return b;
     if (!b) return a;
@@ -190,8 +223,9 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     SignRepairOptions so = options.sign_repair;
     const GridPrecision grid_precision(options.fp32_grid);
     const GridSpec spec = make_grid_spec(bounding_box(cloud.unit().cast<double>()), options.resolution, options.margin);
-    // Outside is positive: decide on the grid box's boundary, which encloses the whole cloud.
-    const PointsF boundary = box_boundary_samples(spec.box, 12);
+    // Outside is positive: decide on the grid box's boundary, which encloses the whole cloud (scenes: on the free
+    // space away from the data, scene_free_space_samples).
+    const PointsF boundary = options.scene.enabled ? scene_free_space_samples(cloud, 24) : box_boundary_samples(spec.box, 12);
     Eigen::VectorXf bvals(boundary.rows());
     fitter.sdf(index, boundary, bvals);
     r.sign_flipped = (bvals.array() < static_cast<float>(options.iso)).count() * 2 > bvals.size();
@@ -250,6 +284,12 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     };
     SdfGridOptions go = options.grid;
     go.progress = chain(go.progress, options.progress);
+    // Scenes: only the blocks near the data, and no growth along the zero set away from it (the
+    // faces there are trimmed anyway): the closed hull of a room costs nothing.
+    if (options.scene.enabled) {
+        go.band = NarrowBand::NearPoints;
+        go.grow = false;
+    }
     // The cavity fill needs every sample of the lattice (include/pcp/mesh/cavity_fill.hpp).
     const std::int64_t lattice = std::int64_t(options.resolution + 1) * (options.resolution + 1) * (options.resolution + 1);
     if (options.cavity_fill.enabled && lattice <= options.cavity_fill.max_samples) go.band = NarrowBand::Dense;
@@ -283,7 +323,13 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
                                             "the fitted SDF's zero set lies away from the data)");
     // The noise's bumps that the fit onto noisy data keeps (include/pcp/mesh/smooth.hpp).
     r.smoothed = r.denoise_passes > 0 ? options.smoothing.noisy : options.smoothing.clean;
-    const Mesh unit_mesh = r.smoothed ? bilateral_smooth(fitted_mesh, options.smoothing.bilateral) : fitted_mesh;
+    Mesh unit_mesh = r.smoothed ? bilateral_smooth(fitted_mesh, options.smoothing.bilateral) : fitted_mesh;
+    // Scenes: open where the data ends (ReconstructOptions::scene).
+    if (options.scene.enabled) {
+        unit_mesh = trim_unsupported_faces(unit_mesh, cloud.tree(), options.scene.support_k * sampling_scale(cloud.tree()),
+                                           &r.scene_trimmed);
+        PCP_CHECK(unit_mesh.faces.rows() > 0, "scene mode: no face of the mesh lies near the input points");
+    }
     Mesh mesh = cloud.normalization().from_unit(unit_mesh);
     r.closed = is_closed_and_oriented(mesh);
     if (normals && options.normal_source != NormalSource::Field) {

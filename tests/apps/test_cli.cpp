@@ -598,3 +598,12 @@ TEST_CASE("cli: pcp_reconstruct with several inputs fits them together and write
     CHECK(std::count(missing.err.begin(), missing.err.end(), '\n') == 1);
     CHECK(!fs::exists(out3 / "a_input.ply"));
 }
+
+TEST_CASE("cli: --scene is the scene preset; with another --preset it is a usage error", "[cli]") {
+    const fs::path dir = case_dir("scene");
+    const RunResult both = run(bin("pcp_reconstruct") + " --scene --preset fast -o '" + (dir / "m.ply").string() + "'");
+    CHECK(both.exit_code == 2);
+    CHECK(both.err.find("--scene") != std::string::npos);
+    const RunResult help = run(bin("pcp_reconstruct") + " --help");
+    CHECK(help.exit_code == 0);
+}

@@ -181,3 +181,27 @@ TEST_CASE("offset along normals: a plate thinner than a cell is kept whole by ex
     broken.faces(0, 0) = static_cast<std::int32_t>(broken.vertices.rows());
     CHECK_THROWS_AS(pcp::offset_along_normals(broken, -d), pcp::Error);
 }
+
+TEST_CASE("trim unsupported faces: faces with no input point near their centroid go, the rest stays, vertices compacted",
+          "[surface_fit]") {
+    // Two unit squares (two triangles each) side by side in z = 0; points only over the first.
+    pcp::Mesh m;
+    m.vertices.resize(6, 3);
+    m.vertices << 0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0, 1, 1, 0, 2, 1, 0;
+    m.faces.resize(4, 3);
+    m.faces << 0, 1, 4, 0, 4, 3, 1, 2, 5, 1, 5, 4;
+    pcp::PointsF pts(9, 3);
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) pts.row(3 * i + j) << 0.25f + 0.25f * i, 0.25f + 0.25f * j, 0.0f;
+    const pcp::KdTree tree(pts);
+    std::int64_t removed = -1;
+    const pcp::Mesh t = pcp::trim_unsupported_faces(m, tree, 0.3, &removed);
+    CHECK(removed == 2);
+    REQUIRE(t.faces.rows() == 2);
+    CHECK(t.vertices.rows() == 4);  // the first square's corners only
+    CHECK(t.faces.maxCoeff() == 3);
+    CHECK(t.vertices.col(0).maxCoeff() == 1.0);
+    // A large radius keeps everything; bad radius throws.
+    CHECK(pcp::trim_unsupported_faces(m, tree, 10.0).faces.rows() == 4);
+    CHECK_THROWS_AS(pcp::trim_unsupported_faces(m, tree, 0.0), pcp::Error);
+}

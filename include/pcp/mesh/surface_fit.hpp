@@ -71,4 +71,11 @@ Mesh offset_along_normals(const Mesh& mesh, double distance);
 /// The same with a distance per vertex (`distances`: one per vertex, finite).
 Mesh offset_along_normals(const Mesh& mesh, const Eigen::VectorXd& distances);
 
+/// Open boundaries where the data ends (the scene mode, ReconstructOptions::scene): keeps the faces
+/// whose centroid has an input point within `radius` (unit-box units, like `unit_mesh` and
+/// `cloud`), drops the others and the vertices no kept face uses. A signed field closes every
+/// surface; a room's walls are seen from one side and its data ends at doors and wall tops, so
+/// the faces that close it there rest on no data. `removed` (if not null) gets the faces dropped.
+Mesh trim_unsupported_faces(const Mesh& unit_mesh, const KdTree& cloud, double radius, std::int64_t* removed = nullptr);
+
 }  // namespace pcp
