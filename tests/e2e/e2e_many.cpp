@@ -6,6 +6,7 @@
 #include "pcp/core/error.hpp"
 #include "pcp/eval/eval.hpp"
 #include "pcp/reconstruct.hpp"
+#include "default_shape_truth.hpp"
 #include "reduced_preset.hpp"
 
 #include <catch2/catch.hpp>
@@ -37,11 +38,7 @@ TEST_CASE("reconstruct_many: one query network for two clouds, each mesh on its 
     CHECK(reports[0].closed);
     // The default shape: Chamfer-L1 against its noise-free surface, the single-cloud e2e test's bound.
     REQUIRE(meshes[1].faces.rows() > 0);
-    const pcp::PointCloud truth = pcp::sample_default_shape(20000, 0.0, 2);
-    pcp::SurfaceSamples gt;
-    gt.points = truth.points;
-    gt.normals.resize(truth.points.rows(), 3);
-    gt.normals << truth.properties.at("nx"), truth.properties.at("ny"), truth.properties.at("nz");
+    const pcp::SurfaceSamples gt = pcp::test::default_shape_truth();
     pcp::EvalOptions eo;
     eo.protocol = pcp::EvalProtocol::Scene;  // no rescaling
     eo.samples = 20000;

@@ -3,6 +3,7 @@
 #include "pcp/mesh/mesh_check.hpp"
 #include "pcp/reconstruct.hpp"
 #include "pcp/cloud/shapes.hpp"
+#include "default_shape_truth.hpp"
 #include "reduced_preset.hpp"
 
 #include <catch2/catch.hpp>
@@ -87,11 +88,7 @@ TEST_CASE("e2e: the default shape reconstructs closed, outward and close to its 
     }
     CHECK(volume > 0);
     // Chamfer-L1 against the noise-free surface, in the shape's own units (about 1 across).
-    const pcp::PointCloud truth = pcp::sample_default_shape(20000, 0.0, 2);
-    pcp::SurfaceSamples gt;
-    gt.points = truth.points;
-    gt.normals.resize(truth.points.rows(), 3);
-    gt.normals << truth.properties.at("nx"), truth.properties.at("ny"), truth.properties.at("nz");
+    const pcp::SurfaceSamples gt = pcp::test::default_shape_truth();
     pcp::EvalOptions eo;
     eo.protocol = pcp::EvalProtocol::Scene;  // no rescaling
     eo.samples = 20000;
