@@ -531,7 +531,7 @@ TEST_CASE("cli: pcp_eval --normals scores oriented points against a GT mesh, poi
     CHECK(both.exit_code == 2);
 }
 
-TEST_CASE("cli: pcp_demo2d writes the figure's pictures; usage errors exit 2, an unusable directory exits 1 naming it", "[cli]") {
+TEST_CASE("cli: pcp_demo2d writes the figure's pictures, usage errors exit 2, an unusable directory exits 1 naming it", "[cli]") {
     const fs::path dir = case_dir("demo2d");
     const std::string demo = bin("pcp_demo2d");
     const RunResult ok = run(demo + " -o '" + (dir / "out").string() + "' --prior-steps 100 --fit-steps 100 --size 64 --quiet");
@@ -619,7 +619,7 @@ TEST_CASE("cli: pcp_reconstruct with several inputs fits them together and write
     CHECK(!fs::exists(out3 / "a_input.ply"));
 }
 
-TEST_CASE("cli: --scene is the scene preset; with another --preset it is a usage error", "[cli]") {
+TEST_CASE("cli: --scene is the scene preset, with another --preset it is a usage error", "[cli]") {
     const fs::path dir = case_dir("scene");
     const RunResult both = run(bin("pcp_reconstruct") + " --scene --preset fast -o '" + (dir / "m.ply").string() + "'");
     CHECK(both.exit_code == 2);
