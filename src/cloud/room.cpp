@@ -64,7 +64,7 @@ Room make_room(const RoomOptions& o) {
                   box(0, 0, 0.3, 0.5, 1.0, 1.3),                       // cabinet against the west wall
                   box(snap(0.65 * W), 0, snap(0.72 * D), snap(0.65 * W) + 0.5, 0.4, snap(0.72 * D) + 0.5),  // a box on the floor
                   box(snap(0.35 * W), 0.72, snap(0.3 * D), snap(0.35 * W) + 1.2, 0.76, snap(0.3 * D) + 0.8)};  // table top
-    const Aabb& top = room.boxes.back();
+    const Aabb top = room.boxes.back();  // a copy: the legs below grow the vector
     for (int i = 0; i < 4; ++i) {  // table legs, 5 cm square, 5 cm in from the corners
         const double x = i % 2 ? top.max.x() - 0.1 : top.min.x() + 0.05, z = i / 2 ? top.max.z() - 0.1 : top.min.z() + 0.05;
         room.boxes.push_back(box(x, 0, z, x + 0.05, 0.72, z + 0.05));
