@@ -1,4 +1,4 @@
-// pcp_make_room -o DIR [--points N] [--noise M] [--seed S]: the generated room of
+// pcp_make_room -o DIR [--points N] [--noise M] [--seed S] (DIR is created if missing): the generated room of
 // pcp/cloud/room.hpp -- its scan as DIR/room.ply and its exact visible surfaces as DIR/room_gt.ply
 // (metres, y up) -- for the scene benchmarks (docs/BENCHMARKS.md, "Scenes"). A tool, not part of
 // the library.
@@ -7,6 +7,7 @@
 #include "pcp/io/io.hpp"
 
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <string>
 
@@ -33,6 +34,9 @@ int main(int argc, char** argv) {
             std::cerr << "usage: pcp_make_room -o DIR [--points N] [--noise METRES] [--seed S]\n";
             return 2;
         }
+        std::error_code ec;
+        std::filesystem::create_directories(dir, ec);
+        if (ec || !std::filesystem::is_directory(dir)) throw pcp::Error(dir + ": cannot create the output directory");
         const pcp::Room room = pcp::make_room(o);
         pcp::write_point_cloud(dir + "/room.ply", room.cloud);
         pcp::write_mesh(dir + "/room_gt.ply", room.ground_truth);
