@@ -49,7 +49,6 @@ int run_many(const cxxopts::ParseResult& args, pcp::ReconstructOptions o, const 
     const std::vector<std::string> inputs = pcp::cli::collect_inputs(positional, list_file);
     if (inputs.empty()) throw pcp::cli::UsageError("no input point clouds");
     const std::string prior_path = args["prior"].as<std::string>();
-    const std::string ext = ".ply";  // --ascii writes ascii PLY
     // Outputs: DIR/<stem>.ply, one per input; when two inputs share a stem (case/input.ply),
     // DIR/<parent directory>_<stem>.ply for all; still the same: refused.
     std::vector<std::string> stems;
@@ -61,7 +60,7 @@ int run_many(const cxxopts::ParseResult& args, pcp::ReconstructOptions o, const 
     for (std::size_t i = 0; i < inputs.size(); ++i) {
         const std::string parent = fs::absolute(fs::path(inputs[i])).parent_path().filename().string();
         const std::string name = shared_stems ? parent + "_" + stems[i] : stems[i];
-        const std::string out = (fs::path(output_dir) / (name + ext)).string();
+        const std::string out = (fs::path(output_dir) / (name + ".ply")).string();
         for (std::size_t j = 0; j < i; ++j)
             if (outputs[j] == out)
                 throw pcp::cli::UsageError(inputs[j] + " and " + inputs[i] + " would both write " + out + "; rename one");

@@ -267,16 +267,21 @@ Demo2dResult run_demo2d(const Demo2dOptions& o, const ProgressCallback& progress
     nn::GlobalSdfCache<float> cache(fit.query_net.shape, fit.decoder.shape, chunk);
     nn::BranchMlpCache<float> dec_cache(fit.decoder.shape, chunk, false);
     const nn::Mat<float> cond_chunk = f_circle.replicate(1, chunk);
-    // F_g at the columns of `pts` (into out), and q_l' (into moved, if not null).
-    const auto eval = [&](const Eigen::Matrix2Xd& pts, Eigen::VectorXd& out, Eigen::Matrix2Xd* moved) {
+    const nn::Mat<float> no_cond;
+    // F_g (prior_only: F(., f_circle)) at the columns of `pts` into out, chunk by chunk, and q_l'
+    // into moved (if not null).
+    const auto eval = [&](const Eigen::Matrix2Xd& pts, Eigen::VectorXd& out, Eigen::Matrix2Xd* moved, bool prior_only) {
         out.resize(pts.cols());
         if (moved) moved->resize(2, pts.cols());
         for (Eigen::Index c0 = 0; c0 < pts.cols(); c0 += chunk) {
             const Eigen::Index n = std::min<Eigen::Index>(chunk, pts.cols() - c0);
             const nn::Mat<float> qf = pts.middleCols(c0, n).cast<float>();
-            const nn::Mat<float> empty;
-            const nn::Mat<float> cond = o.predict_condition ? nn::Mat<float>() : nn::Mat<float>(cond_chunk.leftCols(n));
-            const auto s = nn::global_sdf_eval<float>(fit.query_net, fit.decoder, qf, empty, cond, config, cache);
+            if (prior_only) {
+                out.segment(c0, n) = nn::decoder_eval<float>(fit.decoder, qf, f_circle, dec_cache).transpose().cast<double>();
+                continue;
+            }
+            const nn::CMatRef<float> cond = o.predict_condition ? nn::CMatRef<float>(no_cond) : nn::CMatRef<float>(cond_chunk.leftCols(n));
+            const auto s = nn::global_sdf_eval<float>(fit.query_net, fit.decoder, qf, no_codes, cond, config, cache);
             out.segment(c0, n) = s.transpose().cast<double>();
             if (moved) moved->middleCols(c0, n) = cache.q_local.leftCols(n).cast<double>();
         }
@@ -287,25 +292,17 @@ Demo2dResult run_demo2d(const Demo2dOptions& o, const ProgressCallback& progress
     const Eigen::Index stride = std::max<Eigen::Index>(1, (gauss2 + 3999) / 4000);
     r.queries.resize(2, (gauss2 + stride - 1) / stride);
     for (Eigen::Index c = 0; c < r.queries.cols(); ++c) r.queries.col(c) = q2.col(c * stride);
-    eval(r.queries, values, &r.predicted);
-    eval(r.square, values, &r.square_predicted);
+    eval(r.queries, values, &r.predicted, false);
+    eval(r.square, values, &r.square_predicted, false);
 
     const int nodes = o.grid + 1;
     Eigen::Matrix2Xd grid_pts(2, Eigen::Index(nodes) * nodes);
     for (int i = 0; i < nodes; ++i)
         for (int j = 0; j < nodes; ++j) grid_pts.col(Eigen::Index(i) * nodes + j) << node(o, i), node(o, j);
-    eval(grid_pts, values, nullptr);
+    eval(grid_pts, values, nullptr, false);
     r.field = Eigen::Map<const Eigen::MatrixXd>(values.data(), nodes, nodes).transpose();  // (i, j)
-    {
-        Eigen::VectorXd prior_values(grid_pts.cols());
-        for (Eigen::Index c0 = 0; c0 < grid_pts.cols(); c0 += chunk) {
-            const Eigen::Index n = std::min<Eigen::Index>(chunk, grid_pts.cols() - c0);
-            const nn::Mat<float> qf = grid_pts.middleCols(c0, n).cast<float>();
-            const auto s = nn::decoder_eval<float>(fit.decoder, qf, f_circle, dec_cache);
-            prior_values.segment(c0, n) = s.transpose().cast<double>();
-        }
-        r.prior_field = Eigen::Map<const Eigen::MatrixXd>(prior_values.data(), nodes, nodes).transpose();
-    }
+    eval(grid_pts, values, nullptr, true);
+    r.prior_field = Eigen::Map<const Eigen::MatrixXd>(values.data(), nodes, nodes).transpose();
     r.zero_set = zero_segments(r.field, o);
 
     // ---- Measurements.

@@ -388,6 +388,22 @@ Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<co
     return mesh;
 }
 
+/// The options both entry points check before any work.
+void check_pipeline_options(const ReconstructOptions& options) {
+    PCP_CHECK(options.max_fit_points >= 0, "reconstruct: max_fit_points must be >= 0, got " << options.max_fit_points);
+    PCP_CHECK(std::isfinite(options.thin_offset) && options.thin_offset >= 0 && options.thin_offset < 0.1,
+              "reconstruct: thin_offset must be in [0, 0.1) (unit-box units), got " << options.thin_offset);
+}
+
+/// Huge inputs: the fit sees a seeded uniform subsample (ReconstructOptions::max_fit_points); every
+/// input point is checked first (the normals are given for all of them). Empty when the whole
+/// cloud is fitted.
+Points fit_subsample(const Eigen::Ref<const Points>& points, const std::string& name, const ReconstructOptions& options) {
+    if (options.max_fit_points == 0 || points.rows() <= options.max_fit_points) return Points();
+    check_point_cloud(points, name, min_points_for(options.fit.sampling));
+    return random_subset(points, options.max_fit_points, options.fit.schedule.seed);
+}
+
 }  // namespace
 
 Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior, const ReconstructOptions& options,
@@ -396,17 +412,9 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     ReconstructReport& r = report ? *report : local;
     r = ReconstructReport{};
     if (normals) normals->resize(0, 3);
-    PCP_CHECK(options.max_fit_points >= 0, "reconstruct: max_fit_points must be >= 0, got " << options.max_fit_points);
-    PCP_CHECK(std::isfinite(options.thin_offset) && options.thin_offset >= 0 && options.thin_offset < 0.1,
-              "reconstruct: thin_offset must be in [0, 0.1) (unit-box units), got " << options.thin_offset);
+    check_pipeline_options(options);
     r.input_points = points.rows();
-    // Huge inputs: the fit sees a seeded uniform subsample (ReconstructOptions::max_fit_points);
-    // every input point is checked first (the normals are given for all of them).
-    if (options.max_fit_points > 0 && points.rows() > options.max_fit_points)
-        check_point_cloud(points, "input cloud", min_points_for(options.fit.sampling));
-    const Points subsample = options.max_fit_points > 0 && points.rows() > options.max_fit_points
-                                 ? random_subset(points, options.max_fit_points, options.fit.schedule.seed)
-                                 : Points();
+    const Points subsample = fit_subsample(points, "input cloud", options);
     const bool subsampled = subsample.rows() > 0;
     return reconstruct_fit(subsampled ? Eigen::Ref<const Points>(subsample) : points, points, subsampled, prior,
                            options, r, normals);
@@ -424,9 +432,7 @@ std::vector<Mesh> reconstruct_many(const std::vector<Points>& clouds, const Loca
         if (rs.front().cancelled) one.clear();
         return one;
     }
-    PCP_CHECK(options.max_fit_points >= 0, "reconstruct: max_fit_points must be >= 0, got " << options.max_fit_points);
-    PCP_CHECK(std::isfinite(options.thin_offset) && options.thin_offset >= 0 && options.thin_offset < 0.1,
-              "reconstruct: thin_offset must be in [0, 0.1) (unit-box units), got " << options.thin_offset);
+    check_pipeline_options(options);
     PCP_CHECK(options.fit.ablation == QueryAblation::None && !options.fit.sign_guide.enabled,
               "reconstruct_many: several clouds are fitted with the method itself only (ablation none, no sign guide)");
     const int K = static_cast<int>(clouds.size());
@@ -439,10 +445,7 @@ std::vector<Mesh> reconstruct_many(const std::vector<Points>& clouds, const Loca
         ReconstructReport& r = rs[static_cast<std::size_t>(k)];
         const std::string name = "cloud " + std::to_string(k + 1);
         r.input_points = pts.rows();
-        if (options.max_fit_points > 0 && pts.rows() > options.max_fit_points) {
-            check_point_cloud(pts, name, min_points_for(options.fit.sampling));
-            subsamples[static_cast<std::size_t>(k)] = random_subset(pts, options.max_fit_points, options.fit.schedule.seed);
-        }
+        subsamples[static_cast<std::size_t>(k)] = fit_subsample(pts, name, options);
         const Points& fit_pts = subsamples[static_cast<std::size_t>(k)].rows() > 0 ? subsamples[static_cast<std::size_t>(k)] : pts;
         inputs.push_back(prepare_input(fit_pts, name, options, r));
         prepared.push_back(inputs.back().cloud.get());
