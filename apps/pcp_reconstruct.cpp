@@ -1,7 +1,8 @@
 // pcp_reconstruct [INPUT] -o OUT: point cloud -> mesh by PCP. Without INPUT it runs on the
 // embedded default shape (a block with sharp edges, a through-hole and a thin fin, sampled with
 // noise). Without --prior it first learns a self-prior on the input (its region grid and
-// normalisation, --prior-grid / --prior-normalization, are the paper's ablation tables 11-12).
+// normalisation, --prior-grid / --prior-normalization, are the paper's ablation tables 11-12), or
+// with --prior-source builtin / auto fits against the built-in generic prior, fine-tuned on the input.
 // Progress, checkpoints of the query-network stage (OUT.ckpt, every --checkpoint-every steps and
 // on SIGINT/SIGTERM), --resume, and a final report with times, memory, loss, mesh size and
 // closedness. Several inputs (files, directories, --list) with --output-dir DIR: one query network
@@ -34,6 +35,39 @@ std::string fmt(double v) {
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.6g", v);
     return buf;
+}
+
+std::string to_string(pcp::PriorSource source) {
+    switch (source) {
+        case pcp::PriorSource::Builtin: return "builtin";
+        case pcp::PriorSource::SelfPrior: return "self";
+        case pcp::PriorSource::Auto: break;
+    }
+    return "auto";
+}
+
+/// What the fit uses as its prior, for the parameter table.
+std::string prior_description(const pcp::ReconstructOptions& o, const std::string& prior_path, bool several) {
+    if (!prior_path.empty()) return prior_path;
+    if (o.fit.ablation == pcp::QueryAblation::NoPrior) return "none (F trained from scratch)";
+    const std::string builtin = o.prior_tune_steps > 0
+                                    ? "built-in, fine-tuned on the input for " + std::to_string(o.prior_tune_steps) + " steps"
+                                    : "built-in (generic, trained on generated shapes)";
+    if (o.prior_source == pcp::PriorSource::Builtin) return builtin;
+    if (o.prior_source == pcp::PriorSource::Auto)
+        return builtin + "; a self-prior instead if the input is noisy (denoised); --self-prior: always";
+    return std::string("self-prior") + (several ? " on all inputs" : "") + " (" +
+           (o.self_prior.max_steps > 0 ? std::to_string(o.self_prior.max_steps) + " steps"
+                                        : std::to_string(o.self_prior.epochs) + " epochs") +
+           ", " + std::to_string(o.self_prior.regions.grid) + "^3 grid, normalization " +
+           pcp::to_string(o.self_prior.regions.normalization) + ")";
+}
+
+/// The stage table's name of the prior stage.
+std::string prior_stage(const pcp::ReconstructOptions& o, const std::string& prior_path, const pcp::ReconstructReport& r) {
+    if (!prior_path.empty()) return "prior (read)";
+    if (!r.builtin_prior) return "self-prior";
+    return o.prior_tune_steps > 0 ? "prior (built-in, tuned)" : "prior (built-in)";
 }
 
 /// Several inputs, one fit (pcp::reconstruct_many): --output-dir DIR gets DIR/<stem>.ply per input.
@@ -100,7 +134,7 @@ int run_many(const cxxopts::ParseResult& args, pcp::ReconstructOptions o, const 
         log, {{"inputs", std::to_string(inputs.size()) + " clouds, " + std::to_string(static_cast<long>(total_points)) +
                              " points (one query network, a one-hot code per cloud)"},
               {"output directory", output_dir},
-              {"prior", !prior_path.empty() ? prior_path : "self-prior on all inputs"},
+              {"prior", prior_description(o, prior_path, true)},
               {"preset", args.count("scene") ? std::string("scene") : args["preset"].as<std::string>()},
               {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step) +
                                               " (shared: about " + std::to_string(o.fit.steps * o.fit.queries_per_step /
@@ -134,7 +168,7 @@ int run_many(const cxxopts::ParseResult& args, pcp::ReconstructOptions o, const 
     const double total_s = pcp::cli::seconds_since(t_start);
     const pcp::ReconstructReport& r0 = reports.front();
     pcp::cli::print_stage_table(log, {{"read", t_read, -1},
-                                      {prior_path.empty() ? "self-prior" : "prior (read)", r0.seconds_prior, stage_memory->of("prior")},
+                                      {prior_stage(o, prior_path, r0), r0.seconds_prior, stage_memory->of("prior")},
                                       {"query net (" + std::to_string(r0.fit_steps) + " steps, all clouds)", r0.seconds_fit,
                                        stage_memory->of("query-net")},
                                       {"SDF grids and sign repairs", grid_s, stage_memory->of("sdf-grid")},
@@ -174,7 +208,14 @@ int main(int argc, char** argv) {
             ("normals-from", "mesh | pca | field: the final mesh's normal at the nearest point; the PCA normal "
                              "turned to the mesh's side; or the PCA normal oriented by the fitted field's own votes",
              cxxopts::value<std::string>()->default_value(pcp::to_string(d.normal_source)))
-            ("prior", "A prior trained by pcp_train (default: learn a self-prior on the input)", cxxopts::value<std::string>()->default_value(""))
+            ("prior", "A prior trained by pcp_train (default: see --prior-source)", cxxopts::value<std::string>()->default_value(""))
+            ("prior-tune-steps", "Fine-tune the built-in prior on the input for this many steps first (0 = frozen)",
+             cxxopts::value<long>()->default_value(std::to_string(d.prior_tune_steps)))
+            ("prior-source", "auto | builtin | self: without --prior, fit against the built-in generic prior "
+                             "(fine-tuned on the input for --prior-tune-steps), against a self-prior learned on the "
+                             "input first, or (auto) the built-in one for clean clouds and a self-prior for noisy ones",
+             cxxopts::value<std::string>()->default_value(to_string(d.prior_source)))
+            ("self-prior", "The same as --prior-source self (also implied by the --prior-* options below)")
             ("preset", "paper | default | fast | scene (explicit options below override it)", cxxopts::value<std::string>()->default_value("default"))
             ("scene", "Scene mode, the same as --preset scene: a room or other open surfaces, 512 cells, faces kept only "
                       "where the data supports them (open where the data ends), no repairs that close or flip surfaces")
@@ -188,7 +229,7 @@ int main(int argc, char** argv) {
              cxxopts::value<std::string>()->default_value(d.denoise.automatic ? "auto" : std::to_string(d.denoise.passes)))
             ("denoise-neighbors", "Neighbours per plane fit of --denoise (3..256)",
              cxxopts::value<int>()->default_value(std::to_string(d.denoise.neighbors)));
-        options.add_options("Self-prior (stage 1, when no --prior is given)")
+        options.add_options("Self-prior (stage 1, the default; any of these implies --prior-source self)")
             ("prior-epochs", "Self-prior epochs (passes over the input's regions)", cxxopts::value<int>()->default_value(std::to_string(d.self_prior.epochs)))
             ("prior-steps", "Stop the self-prior after this many steps instead (0 = epochs x regions)",
              cxxopts::value<long>()->default_value(std::to_string(d.self_prior.max_steps)))
@@ -200,6 +241,11 @@ int main(int argc, char** argv) {
         options.add_options("Query network (stage 2)")
             ("steps", "Query-network steps", cxxopts::value<long>()->default_value(std::to_string(d.fit.steps)))
             ("batch", "Queries per step", cxxopts::value<int>()->default_value(std::to_string(d.fit.queries_per_step)))
+            ("stop-rule", "on | off: stop the query network when its loss has levelled off (then a cooldown), "
+                          "with --steps as the cap; off: exactly --steps steps",
+             cxxopts::value<std::string>()->default_value(d.fit.stop.enabled ? "on" : "off"))
+            ("stop-tolerance", "The stop rule's plateau: relative decrease of the mean loss between two windows of "
+                               "200 steps below this", cxxopts::value<double>()->default_value(fmt(d.fit.stop.tolerance)))
             ("lr", "Learning rate", cxxopts::value<double>()->default_value(fmt(d.fit.schedule.learning_rate)))
             ("width", "Query-network width", cxxopts::value<int>()->default_value(std::to_string(d.fit.width)))
             ("ablation", "The paper's stage-2 ablations: none (the method) | no-shift | direct | free-code | pointnet-code | "
@@ -275,6 +321,22 @@ int main(int argc, char** argv) {
         } catch (const pcp::Error& e) {
             throw pcp::cli::UsageError(e.what());
         }
+        if (args.count("self-prior") && !args["prior"].as<std::string>().empty())
+            throw pcp::cli::UsageError("--self-prior and --prior exclude each other (a self-prior is learned, --prior is read)");
+        if (args.count("prior-source")) {
+            const std::string v = args["prior-source"].as<std::string>();
+            if (v == "auto") o.prior_source = pcp::PriorSource::Auto;
+            else if (v == "builtin") o.prior_source = pcp::PriorSource::Builtin;
+            else if (v == "self") o.prior_source = pcp::PriorSource::SelfPrior;
+            else throw pcp::cli::UsageError("--prior-source must be auto, builtin or self (got '" + v + "')");
+            if (!args["prior"].as<std::string>().empty())
+                throw pcp::cli::UsageError("--prior-source and --prior exclude each other");
+        }
+        if (args.count("self-prior") || args.count("prior-epochs") || args.count("prior-steps") || args.count("prior-grid") ||
+            args.count("prior-normalization"))
+            o.prior_source = pcp::PriorSource::SelfPrior;
+        if (args.count("prior-tune-steps")) o.prior_tune_steps = args["prior-tune-steps"].as<long>();
+        if (o.prior_tune_steps < 0) throw pcp::cli::UsageError("--prior-tune-steps must be >= 0");
         if (args.count("prior-epochs")) o.self_prior.epochs = args["prior-epochs"].as<int>();
         if (o.self_prior.epochs < 1) throw pcp::cli::UsageError("--prior-epochs must be >= 1");
         if (args.count("prior-steps")) o.self_prior.max_steps = args["prior-steps"].as<long>();
@@ -332,6 +394,14 @@ int main(int argc, char** argv) {
         if (args.count("denoise-neighbors")) o.denoise.neighbors = args["denoise-neighbors"].as<int>();
         if (o.denoise.neighbors < 3 || o.denoise.neighbors > 256)
             throw pcp::cli::UsageError("--denoise-neighbors must be in [3, 256]");
+        if (args.count("stop-rule")) {
+            const std::string v = args["stop-rule"].as<std::string>();
+            if (v != "on" && v != "off") throw pcp::cli::UsageError("--stop-rule must be on or off (got '" + v + "')");
+            o.fit.stop.enabled = v == "on";
+        }
+        if (args.count("stop-tolerance")) o.fit.stop.tolerance = args["stop-tolerance"].as<double>();
+        if (!(o.fit.stop.tolerance >= 0.0 && o.fit.stop.tolerance < 1.0))
+            throw pcp::cli::UsageError("--stop-tolerance must be in [0, 1)");
         if (args.count("sign-repair")) {
             const std::string v = args["sign-repair"].as<std::string>();
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--sign-repair must be on or off (got '" + v + "')");
@@ -456,19 +526,14 @@ int main(int argc, char** argv) {
                                                             (subsampled ? "; the fit uses a random " + std::to_string(o.max_fit_points) +
                                                                               " of them (--max-points)" : std::string()) + ")"},
                                               {"output", output},
-                                              {"prior", !prior_path.empty() ? prior_path
-                                                        : o.fit.ablation == pcp::QueryAblation::NoPrior ? "none (F trained from scratch)"
-                                                        : "self-prior (" + (o.self_prior.max_steps > 0
-                                                                                  ? std::to_string(o.self_prior.max_steps) + " steps"
-                                                                                  : std::to_string(o.self_prior.epochs) + " epochs") +
-                                                              ", " + std::to_string(o.self_prior.regions.grid) + "^3 grid, normalization " +
-                                                              pcp::to_string(o.self_prior.regions.normalization) + ")"},
+                                              {"prior", prior_description(o, prior_path, false)},
                                               {"preset", args.count("scene") ? std::string("scene") : args["preset"].as<std::string>()},
                                               {"denoise", o.denoise.automatic    ? "auto, " + std::to_string(o.denoise.neighbors) + " neighbours"
                                                           : o.denoise.passes > 0 ? std::to_string(o.denoise.passes) + " passes, " +
                                                                                        std::to_string(o.denoise.neighbors) + " neighbours"
                                                                                  : "off"},
-                                              {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step)},
+                                              {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step) +
+                                                                                  (o.fit.stop.enabled ? " (at most; stop rule on)" : "")},
                                               {"ablation", pcp::to_string(o.fit.ablation)},
                                               {"resolution", std::to_string(o.resolution)},
                                               {"sign repair", o.sign_repair.enabled ? "on (coarse grid " + std::to_string(std::min(o.sign_repair.resolution, o.resolution)) + ")" : "off"},
@@ -538,7 +603,7 @@ int main(int argc, char** argv) {
         pcp::cli::print_stage_table(
             log, {{"read", t_read, -1},
                   {"denoise (" + std::to_string(report.denoise_passes) + " passes)", report.seconds_denoise, -1},
-                  {prior_path.empty() ? "self-prior" : "prior (read)", report.seconds_prior, stage_memory->of("prior")},
+                  {prior_stage(o, prior_path, report), report.seconds_prior, stage_memory->of("prior")},
                   {"query net (" + std::to_string(report.fit_steps) + " steps)", report.seconds_fit, stage_memory->of("query-net")},
                   {"SDF grid and sign repairs", report.seconds_grid, stage_memory->of("sdf-grid")},
                   {"marching cubes, surface fit", report.seconds_mesh, -1},

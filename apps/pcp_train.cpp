@@ -7,7 +7,9 @@
 #include "pcp/core/error.hpp"
 #include "pcp/core/files.hpp"
 #include "pcp/cloud/normalize.hpp"
+#include "pcp/io/io.hpp"
 #include "pcp/train/prior.hpp"
+#include "pcp/train/training_shapes.hpp"
 #include "pcp/cloud/regions.hpp"
 #include "pcp/cloud/sampling.hpp"
 
@@ -32,6 +34,12 @@ int main(int argc, char** argv) {
         options.add_options()
             ("inputs", "Point-cloud files or directories", cxxopts::value<std::vector<std::string>>())
             ("list", "A file listing inputs, one per line", cxxopts::value<std::string>()->default_value(""))
+            ("shapes", "Also train on this many generated shapes (CSG of boxes, cylinders, cones, tori, plates, shells, "
+                       "with holes, blends and cuts; 10k-40k points, some noisy): how the built-in prior is made",
+             cxxopts::value<int>()->default_value("0"))
+            ("shapes-seed", "Seed of the generated shapes", cxxopts::value<long>()->default_value("1"))
+            ("save-shapes", "Write the generated shapes' clouds into this directory (PLY) and stop",
+             cxxopts::value<std::string>()->default_value(""))
             ("o,output", "The prior file to write", cxxopts::value<std::string>()->default_value(""))
             ("preset", "paper | default | fast (explicit options below override it)", cxxopts::value<std::string>()->default_value("default"))
             ("dry-run", "Load and split the inputs, report, and stop")
@@ -104,8 +112,31 @@ int main(int argc, char** argv) {
 
         const std::vector<std::string> positional =
             args.count("inputs") ? args["inputs"].as<std::vector<std::string>>() : std::vector<std::string>{};
-        const std::vector<std::string> inputs = pcp::cli::collect_inputs(positional, args["list"].as<std::string>());
-        if (inputs.empty()) throw pcp::cli::UsageError("no inputs (give files, directories or --list)");
+        const std::vector<std::string> inputs = positional.empty() && args["list"].as<std::string>().empty()
+                                                    ? std::vector<std::string>{}
+                                                    : pcp::cli::collect_inputs(positional, args["list"].as<std::string>());
+        const int num_shapes = args["shapes"].as<int>();
+        if (num_shapes < 0 || num_shapes > 100000) throw pcp::cli::UsageError("--shapes must be in [0, 100000]");
+        const std::string save_shapes = args["save-shapes"].as<std::string>();
+        if (!save_shapes.empty() && num_shapes == 0) throw pcp::cli::UsageError("--save-shapes needs --shapes N");
+        if (inputs.empty() && num_shapes == 0) throw pcp::cli::UsageError("no inputs (give files, directories, --list or --shapes)");
+        if (!save_shapes.empty()) {
+            pcp::TrainingShapeOptions so;
+            so.count = num_shapes;
+            so.seed = static_cast<std::uint64_t>(args["shapes-seed"].as<long>());
+            std::filesystem::create_directories(save_shapes);
+            const std::vector<pcp::TrainingCloud> generated = pcp::generate_training_clouds(so);
+            for (std::size_t i = 0; i < generated.size(); ++i) {
+                char name[32];
+                std::snprintf(name, sizeof name, "shape_%03zu.ply", i);
+                pcp::PointCloud cloud;
+                cloud.points = generated[i].points;
+                pcp::write_point_cloud((std::filesystem::path(save_shapes) / name).string(), cloud);
+                log.info(generated[i].name);
+            }
+            log.info("wrote " + std::to_string(generated.size()) + " clouds into " + save_shapes);
+            return 0;
+        }
         const std::string output = args["output"].as<std::string>();
         const bool dry_run = args.count("dry-run") > 0;
         if (!dry_run) {
@@ -125,6 +156,12 @@ int main(int argc, char** argv) {
             }
             clouds.push_back(std::move(c));
         }
+        if (num_shapes > 0) {
+            pcp::TrainingShapeOptions so;
+            so.count = num_shapes;
+            so.seed = static_cast<std::uint64_t>(args["shapes-seed"].as<long>());
+            for (pcp::TrainingCloud& c : pcp::generate_training_clouds(so)) clouds.push_back(std::move(c));
+        }
         const double t_read = pcp::cli::seconds_since(t_start);
 
         const auto t_prep = std::chrono::steady_clock::now();
@@ -133,7 +170,7 @@ int main(int argc, char** argv) {
         o.schedule.resume = args.count("resume") > 0;
         pcp::PriorTrainer trainer(clouds, o);
         const double t_setup = pcp::cli::seconds_since(t_prep);
-        pcp::cli::print_parameter_table(log, {{"inputs", std::to_string(inputs.size()) + " cloud(s)"},
+        pcp::cli::print_parameter_table(log, {{"inputs", std::to_string(inputs.size()) + " cloud(s) + " + std::to_string(num_shapes) + " generated"},
                                               {"regions", std::to_string(trainer.num_regions())},
                                               {"steps", std::to_string(trainer.total_steps())},
                                               {"settings", trainer.prior().provenance.settings},

@@ -27,9 +27,13 @@ bench_kept_cases "$out" | while read -r c d input gt; do
         args=${v#*:}
         [ "$name" != pcp ] || { echo "remesh_variants: the name 'pcp' is the stored mesh's" >&2; exit 2; }
         cp "$d/pcp.ply.ckpt" "$d/$name.ply.ckpt"
-        cp "$d/pcp.ply.ckpt.prior" "$d/$name.ply.ckpt.prior"
+        prior_flag=""
+        if [ -f "$d/pcp.ply.ckpt.prior" ]; then  # networks fitted against a self-prior
+            cp "$d/pcp.ply.ckpt.prior" "$d/$name.ply.ckpt.prior"
+            prior_flag="--self-prior"
+        fi
         # shellcheck disable=SC2086
-        if "$BIN/pcp_reconstruct" "$input" -o "$d/$name.ply" --preset "$PRESET" --resume --keep-checkpoint $args >"$d/$name.log" 2>&1; then
+        if "$BIN/pcp_reconstruct" "$input" -o "$d/$name.ply" --preset "$PRESET" --resume --keep-checkpoint $prior_flag $args >"$d/$name.log" 2>&1; then
             line="$line | $name $(score "$d/$name.ply" "$gt")"
         else
             line="$line | $name failed (see $d/$name.log)"

@@ -161,6 +161,7 @@ py::object reconstruct(const py::handle& points_obj, const std::string& preset, 
     }
     if (prior_steps) {
         if (*prior_steps < 1) throw py::value_error("prior_steps must be >= 1");
+        o.prior_source = pcp::PriorSource::SelfPrior;
         o.self_prior.max_steps = *prior_steps;
     }
     if (resolution) {

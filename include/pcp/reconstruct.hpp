@@ -36,9 +36,23 @@ struct SceneOptions {
     double support_k = 1.0;  ///< a face stays when an input point lies within support_k x the sampling scale of its centroid
 };
 
+/// The prior fitted against when none is given to reconstruct().
+enum class PriorSource {
+    Builtin,    ///< the generic prior compiled into the library (pcp/train/builtin_prior.hpp)
+    SelfPrior,  ///< a prior trained on the input cloud first (ReconstructOptions::self_prior)
+    Auto,       ///< Builtin for clean clouds, SelfPrior for the clouds the denoiser found noisy
+                ///< (DenoiseOptions::automatic; with several clouds, if any of them is)
+};
+
 struct ReconstructOptions {
     DenoiseOptions denoise;          ///< optional plane-projection denoising of the input (off; not in the paper)
-    PriorTrainOptions self_prior = PriorTrainOptions::preset("fast");  ///< used when no prior is given
+    /// When no prior is given. SelfPrior: the built-in prior is better on most ABC scans but not yet
+    /// on every family (the noisy bunny, the built-in shape; docs/BENCHMARKS.md, "Built-in prior").
+    PriorSource prior_source = PriorSource::SelfPrior;
+    /// When the built-in prior is used: fine-tune the built-in prior on the input's regions for this many
+    /// steps first (self_prior's regions, sampling and schedule; 0 = use it frozen).
+    std::int64_t prior_tune_steps = 0;
+    PriorTrainOptions self_prior = PriorTrainOptions::preset("fast");  ///< with PriorSource::SelfPrior
     QueryFitOptions fit;
     int resolution = 128;            ///< marching-cubes cells along the longest axis (paper: 128 / 512)
     double margin = 0.05;            ///< added around the cloud's unit box on every side (paper: 0.05)
@@ -98,6 +112,7 @@ struct ReconstructReport {
     std::int64_t winding_corrected = 0;  ///< field values whose sign the winding number changed
     VisibilityStats visibility;      ///< the visibility labels (all 0: not computed)
     int guided_per_step = 0;         ///< the fit's sign-guided queries per step (0: guide off)
+    bool builtin_prior = false;      ///< the fit used the built-in prior (frozen or fine-tuned)
     double prior_loss = 0, fit_loss = 0;
     std::int64_t fit_steps = 0;
     int denoise_passes = 0;          ///< passes applied to the input (DenoiseOptions; resolved when automatic)
@@ -118,9 +133,10 @@ struct ReconstructReport {
 /// concurrent call's training then runs some steps in fp32 and is not reproducible; run such calls
 /// one at a time, or set fp32_grid = false.
 ///
-/// Point cloud (input frame) -> mesh (input frame, outward faces). With `prior` null a self-prior
-/// is trained on the cloud first (options.self_prior), except in the no-prior ablation, which only
-/// takes the network sizes from options.self_prior. With `normals` non-null it also receives the
+/// Point cloud (input frame) -> mesh (input frame, outward faces). With `prior` null the fit uses
+/// the built-in prior or a self-prior trained on the cloud first (options.self_prior), as
+/// options.prior_source says; the no-prior ablation only takes the network sizes from
+/// options.self_prior. With `normals` non-null it also receives the
 /// oriented unit normal of every input point (N x 3, input frame, same order, pointing outward),
 /// read off the fitted field (pcp/mesh/field_normals.hpp; of the denoised point when the cloud was
 /// denoised); empty when the run was cancelled.

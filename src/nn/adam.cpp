@@ -41,8 +41,10 @@ double LrSchedule::at(std::int64_t step) const {
         case Kind::Constant:
             return lr;
         case Kind::Cosine: {
-            const double span = double(std::max<std::int64_t>(total_steps - warmup_steps, 1));
-            const double x = std::min(1.0, double(step - warmup_steps) / span);
+            const std::int64_t start = std::max(warmup_steps, decay_start);
+            if (step < start) return lr;
+            const double span = double(std::max<std::int64_t>(total_steps - start, 1));
+            const double x = std::min(1.0, double(step - start) / span);
             return final_lr + 0.5 * (lr - final_lr) * (1.0 + std::cos(3.14159265358979323846 * x));
         }
     }

@@ -8,12 +8,14 @@
 #include "pcp/reconstruct.hpp"
 
 #include "pcp/cloud/prepared_cloud.hpp"
+#include "pcp/cloud/regions.hpp"
 #include "pcp/core/error.hpp"
 #include "pcp/core/rng.hpp"
 #include "pcp/mesh/marching_cubes.hpp"
 #include "pcp/mesh/mesh_check.hpp"
 #include "pcp/mesh/surface_fit.hpp"
 #include "pcp/nn/gemm.hpp"
+#include "pcp/train/builtin_prior.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -126,13 +128,24 @@ PointsF per_input_point(const PointsF& values, const PreparedCloud& cloud, const
     return out;
 }
 
-/// The prior to fit against: `given`, else (with checkpoints on and --resume) the self-prior kept
-/// beside the query-net checkpoint, else F's sizes only (no-prior ablation), else a self-prior
-/// trained on the cloud. Null when the training was cancelled.
+/// The prior to fit against: `given`, else F's sizes only (no-prior ablation), else the built-in
+/// prior, else (with checkpoints on and --resume) the self-prior kept beside the query-net
+/// checkpoint, else a self-prior trained on the cloud. Null when the training was cancelled.
 const LocalPrior* obtain_prior(const LocalPrior* given, const std::vector<const PreparedCloud*>& clouds,
                                const ReconstructOptions& options, const std::string& prior_ckpt, LocalPrior& self_prior,
-                               ReconstructReport& r) {
+                               ReconstructReport& r, bool noisy) {
     if (given) return given;
+    const bool builtin = (options.prior_source == PriorSource::Builtin || (options.prior_source == PriorSource::Auto && !noisy)) &&
+                         options.fit.ablation != QueryAblation::NoPrior;
+    r.builtin_prior = builtin;
+    // Frozen when asked, or when no region of the input has enough points to tune on (small
+    // clouds: the built-in prior's 6^3 regions).
+    const auto tunable = [&] {
+        for (const PreparedCloud* c : clouds)
+            if (!split_into_regions(c->unit(), builtin_prior().regions).empty()) return true;
+        return false;
+    };
+    if (builtin && (options.prior_tune_steps <= 0 || !tunable())) return &builtin_prior();
     if (options.fit.schedule.resume && !prior_ckpt.empty() && std::filesystem::exists(prior_ckpt)) {
         self_prior = load_prior(prior_ckpt);
         return &self_prior;
@@ -142,6 +155,10 @@ const LocalPrior* obtain_prior(const LocalPrior* given, const std::vector<const 
         return &self_prior;
     }
     PriorTrainOptions po = options.self_prior;
+    if (builtin) {  // fine-tune the built-in prior (not owned: the alias of an empty pointer)
+        po.start = std::shared_ptr<const LocalPrior>(std::shared_ptr<const LocalPrior>(), &builtin_prior());
+        po.max_steps = options.prior_tune_steps;
+    }
     po.schedule.progress = chain(po.schedule.progress, options.progress);
     // With checkpoints on, the self-prior's training is checkpointed too (OUT.ckpt.prior-training,
     // at the query fit's cadence and when stopped), so that --resume continues it rather than
@@ -360,7 +377,7 @@ Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<co
     LocalPrior self_prior;
     const std::string& ckpt = options.fit.schedule.checkpoint_path;
     const std::string prior_ckpt = ckpt.empty() ? "" : ckpt + ".prior";
-    prior = obtain_prior(prior, {&cloud}, options, prior_ckpt, self_prior, r);
+    prior = obtain_prior(prior, {&cloud}, options, prior_ckpt, self_prior, r, r.denoise_passes > 0);
     r.seconds_prior = seconds_since(t0);
     if (!prior) {
         r.cancelled = true;
@@ -456,7 +473,9 @@ std::vector<Mesh> reconstruct_many(const std::vector<Points>& clouds, const Loca
     LocalPrior self_prior;
     const std::string& ckpt = options.fit.schedule.checkpoint_path;
     const std::string prior_ckpt = ckpt.empty() ? "" : ckpt + ".prior";
-    prior = obtain_prior(prior, prepared, options, prior_ckpt, self_prior, shared);
+    bool any_noisy = false;
+    for (const ReconstructReport& r : rs) any_noisy = any_noisy || r.denoise_passes > 0;
+    prior = obtain_prior(prior, prepared, options, prior_ckpt, self_prior, shared, any_noisy);
     shared.seconds_prior = seconds_since(t0);
     const auto cancelled = [&]() {
         for (ReconstructReport& r : rs) r.cancelled = true;
@@ -478,6 +497,7 @@ std::vector<Mesh> reconstruct_many(const std::vector<Points>& clouds, const Loca
     for (int k = 0; k < K; ++k) {
         ReconstructReport& r = rs[static_cast<std::size_t>(k)];
         r.prior_loss = shared.prior_loss;
+        r.builtin_prior = shared.builtin_prior;
         r.seconds_prior = shared.seconds_prior;
         r.fit_loss = shared.fit_loss;
         r.fit_steps = shared.fit_steps;

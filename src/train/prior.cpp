@@ -218,8 +218,15 @@ void PriorTrainer::Impl::prepare(const std::vector<const PreparedCloud*>& clouds
     PCP_CHECK(options.regions.min_points >= min_points_for(options.sampling),
               "prior training: regions need at least " << min_points_for(options.sampling)
                                                       << " points for the query spread (min_points)");
+    if (options.start) {  // fine-tuning: the start prior's networks on its own regions
+        options.network = options.start->network;
+        options.regions = options.start->regions;
+    }
     std::ostringstream fp;
     fp << summarize(options);
+    if (options.start)
+        fp << " | start: " << options.start->provenance.settings << " (" << options.start->provenance.steps << " steps, loss "
+           << options.start->provenance.final_loss << ")";
     std::vector<std::vector<Region>> all_regions;
     for (std::size_t c = 0; c < clouds.size(); ++c) {
         const PreparedCloud& cloud = *clouds[c];
@@ -258,7 +265,7 @@ void PriorTrainer::Impl::prepare(const std::vector<const PreparedCloud*>& clouds
     checkpoint_id.fingerprint = fp.str();
     recent = detail::LossWindow(static_cast<std::size_t>(std::min<std::int64_t>(n_regions, 100)));
 
-    LocalPrior init(options.network, sched.seed);
+    const LocalPrior init = options.start ? *options.start : LocalPrior(options.network, sched.seed);
     const int qn = options.queries_per_step;
     trainer = std::make_unique<nn::Stage1Trainer<float>>(init.encoder(), init.decoder(), qn, qn, detail::make_optim(sched, total));
     q.resize(3, qn);

@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <sstream>
 
 #include <omp.h>
@@ -80,6 +81,13 @@ struct QueryNetFitter::Impl {
     std::unique_ptr<nn::Stage2Trainer<float>> trainer;
     MatF q, t, codes;       ///< batch buffers; codes: K x batch one-hot, 0 x 0 for one cloud
     detail::LossWindow recent{100};
+    /// The stop rule's state (QueryFitOptions::stop): the planned end, the step of the plateau
+    /// (-1: none yet), the previous window's mean loss and the current window's sum.
+    struct StopState {
+        std::int64_t end = 0;
+        std::int64_t plateau = -1;
+        double previous = 0.0, sum = 0.0;
+    } stop;
     mutable std::vector<std::unique_ptr<nn::GlobalSdfCache<float>>> caches;  ///< one per thread
     nn::Stage2Config config;
     // pointnet-code: the frozen encoder's condition of each region (C x R), the region of each
@@ -95,6 +103,35 @@ struct QueryNetFitter::Impl {
     int guided = 0;
     PointsF guide_points;
     Eigen::VectorXf guide_values;
+
+    /// The rate: the peak until `start`, then cosine to 0.02 x the peak at `end`.
+    void set_cooldown(std::int64_t start, std::int64_t end) {
+        nn::LrSchedule& lr = trainer->options.lr;
+        lr.kind = nn::LrSchedule::Kind::Cosine;
+        lr.final_lr = 0.02 * lr.lr;
+        lr.decay_start = start;
+        lr.total_steps = end;
+    }
+
+    /// The stop rule after the step that ended with `done` steps and had loss `loss`.
+    void update_stop(std::int64_t done, double loss) {
+        const StopRule& rule = options.stop;
+        if (!rule.enabled || stop.plateau >= 0) return;
+        stop.sum += loss;
+        if (done % rule.window != 0) return;
+        const double mean = stop.sum / static_cast<double>(rule.window);
+        if (stop.previous > 0.0 && done >= rule.min_steps && stop.previous - mean < rule.tolerance * stop.previous) {
+            stop.plateau = done;
+            const std::int64_t cooldown = std::max(rule.min_cooldown, static_cast<std::int64_t>(std::llround(
+                                                                          rule.cooldown_fraction * static_cast<double>(done))));
+            if (done + cooldown < stop.end) {
+                stop.end = done + cooldown;
+                set_cooldown(done, stop.end);
+            }
+        }
+        stop.previous = mean;
+        stop.sum = 0.0;
+    }
 
     int region_of(const Eigen::Vector3f& p) const {
         int id = 0;
@@ -233,6 +270,14 @@ void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_
     m.trainer = std::make_unique<nn::Stage2Trainer<float>>(query_net, decoder, opts.queries_per_step + m.guided,
                                                            detail::make_optim(sched, opts.steps), m.config);
     m.trainer->workspace.guide_weight = static_cast<float>(opts.sign_guide.weight);
+    m.stop.end = opts.steps;
+    if (opts.stop.enabled) {
+        const StopRule& rule = opts.stop;
+        PCP_CHECK(rule.window >= 1 && rule.tolerance >= 0.0 && rule.min_steps >= 0 && rule.cooldown_fraction >= 0.0 &&
+                      rule.min_cooldown >= 1,
+                  "query fitting: the stop rule needs window >= 1, min_cooldown >= 1 and non-negative settings");
+        m.set_cooldown(std::max<std::int64_t>(sched.warmup_steps, opts.steps - rule.min_cooldown), opts.steps);
+    }
     if (opts.ablation == QueryAblation::FreeCode) {  // DeepSDF's code initialisation, N(0, 1/C)
         nn::Rng crng(sched.seed, 204);
         for (Eigen::Index i = 0; i < m.trainer->code.size(); ++i)
@@ -245,6 +290,9 @@ void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_
            << " warmup=" << sched.warmup_steps << " clip=" << sched.clip_norm << " seed=" << sched.seed
            << " qpp=" << opts.sampling.queries_per_point << " spreads=";
         for (float x : opts.sampling.spreads) fp << x << ",";
+        if (opts.stop.enabled)
+            fp << " stop=" << opts.stop.window << "/" << opts.stop.tolerance << "/" << opts.stop.min_steps << "/"
+               << opts.stop.cooldown_fraction << "/" << opts.stop.min_cooldown;
         fp << " uniform=" << opts.sampling.uniform_fraction << "/"
            << opts.sampling.uniform_margin << " points=" << first.size();
         if (m.guided > 0) {
@@ -324,13 +372,17 @@ double QueryNetFitter::step() {
     }
     detail::check_loss(loss, "query fitting", s);
     m.recent.push(loss);
+    m.update_stop(s + 1, loss);
     return loss;
 }
 
 bool QueryNetFitter::run() {
     const Impl& m = *impl_;
-    return detail::run_step_loop(*this, "query-net", m.options.steps, m.options.schedule);
+    return detail::run_step_loop(*this, "query-net", m.options.steps, m.options.schedule, [&m] { return m.stop.end; });
 }
+
+std::int64_t QueryNetFitter::planned_steps() const { return impl_->stop.end; }
+std::int64_t QueryNetFitter::plateau_step() const { return impl_->stop.plateau; }
 
 void QueryNetFitter::sdf(const Eigen::Ref<const PointsF>& unit_points, Eigen::Ref<Eigen::VectorXf> values) const {
     PCP_CHECK(num_clouds() == 1, "query net sdf: " << num_clouds() << " clouds were fitted; say which one");
@@ -397,6 +449,11 @@ void QueryNetFitter::checkpoint(const std::string& path) const {
         meta.add_number("code_adam_t", tr.adam_code.t);
     }
     meta.add("recent_losses", m.recent.text());
+    if (m.options.stop.enabled) {
+        std::ostringstream stop;
+        stop << m.stop.end << " " << m.stop.plateau << " " << std::hexfloat << m.stop.previous << " " << m.stop.sum;
+        meta.add("stop_rule", stop.str());
+    }
     file.metadata = meta.text();
     file.nets.push_back(nn::make_record("query_net", tr.query_net, &tr.adam_query));
     if (tr.config.train_decoder) file.nets.push_back(nn::make_record("decoder", tr.decoder, &tr.adam_decoder));
@@ -426,6 +483,22 @@ void QueryNetFitter::resume(const std::string& path) {
     }
     m.trainer->steps = static_cast<std::int64_t>(file.step);
     m.recent.restore(meta.has("recent_losses") ? meta.get("recent_losses") : "", path);
+    if (m.options.stop.enabled) {
+        PCP_CHECK(meta.has("stop_rule"), path << ": the checkpoint holds no stop-rule state");
+        std::istringstream in(meta.get("stop_rule"));
+        Impl::StopState st;
+        std::string previous, sum;
+        in >> st.end >> st.plateau >> previous >> sum;
+        char* e1 = nullptr;
+        char* e2 = nullptr;
+        st.previous = std::strtod(previous.c_str(), &e1);
+        st.sum = std::strtod(sum.c_str(), &e2);
+        PCP_CHECK(!in.fail() && e1 && *e1 == '\0' && e2 && *e2 == '\0' && !previous.empty() && !sum.empty() &&
+                      st.end >= m.trainer->steps && st.end <= m.options.steps && st.plateau <= st.end,
+                  path << ": malformed stop-rule state '" << meta.get("stop_rule") << "'");
+        m.stop = st;
+        if (st.plateau >= 0 && st.end < m.options.steps) m.set_cooldown(st.plateau, st.end);
+    }
 }
 
 }  // namespace pcp

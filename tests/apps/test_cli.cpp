@@ -219,6 +219,48 @@ TEST_CASE("cli: pcp_reconstruct's self-prior region options: bad values exit 2 n
     CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
 }
 
+TEST_CASE("cli: prior source, tuning and stop-rule options: bad values exit 2 naming the flag", "[cli]") {
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {" --prior-source both x.ply", "--prior-source must be auto, builtin or self (got 'both')"},
+        {" --prior-source builtin --prior p.pcpm x.ply", "--prior-source and --prior exclude each other"},
+        {" --self-prior --prior p.pcpm x.ply", "--self-prior and --prior exclude each other"},
+        {" --prior-tune-steps -1 x.ply", "--prior-tune-steps must be >= 0"},
+        {" --stop-rule maybe x.ply", "--stop-rule must be on or off (got 'maybe')"},
+        {" --stop-tolerance 1.5 x.ply", "--stop-tolerance must be in [0, 1)"}};
+    for (const auto& c : cases) {
+        const RunResult r = run(bin("pcp_reconstruct") + c.first);
+        INFO(c.first << " stderr: " << r.err);
+        CHECK(r.exit_code == 2);
+        CHECK(r.err.find(c.second) != std::string::npos);
+    }
+    const RunResult shapes = run(bin("pcp_train") + " --save-shapes /tmp/x");
+    INFO("stderr: " << shapes.err);
+    CHECK(shapes.exit_code == 2);
+    CHECK(shapes.err.find("--save-shapes needs --shapes N") != std::string::npos);
+    const RunResult negative = run(bin("pcp_train") + " --shapes -3 -o p.pcpm");
+    CHECK(negative.exit_code == 2);
+    CHECK(negative.err.find("--shapes must be in [0, 100000]") != std::string::npos);
+}
+
+TEST_CASE("cli: pcp_train --shapes writes the same prior twice, and --save-shapes writes the clouds", "[cli]") {
+    const fs::path dir = case_dir("train_shapes");
+    const std::string quick = " --preset fast --shapes 3 --steps 20 --threads 2 -q -o ";
+    const RunResult a = run(bin("pcp_train") + quick + "'" + (dir / "a.pcpm").string() + "'");
+    INFO("stderr: " << a.err);
+    REQUIRE(a.exit_code == 0);
+    const RunResult b = run(bin("pcp_train") + quick + "'" + (dir / "b.pcpm").string() + "'");
+    REQUIRE(b.exit_code == 0);
+    std::ifstream fa(dir / "a.pcpm", std::ios::binary), fb(dir / "b.pcpm", std::ios::binary);
+    const std::string ba((std::istreambuf_iterator<char>(fa)), {}), bb((std::istreambuf_iterator<char>(fb)), {});
+    CHECK(!ba.empty());
+    CHECK(ba == bb);  // deterministic, as scripts/make_builtin_prior.sh relies on
+    const RunResult save = run(bin("pcp_train") + " --shapes 2 --save-shapes '" + (dir / "clouds").string() + "' -q");
+    INFO("stderr: " << save.err);
+    REQUIRE(save.exit_code == 0);
+    CHECK(fs::exists(dir / "clouds" / "shape_000.ply"));
+    CHECK(fs::exists(dir / "clouds" / "shape_001.ply"));
+}
+
 TEST_CASE("cli: pcp_reconstruct's sign-repair and denoise options: bad values exit 2 naming the flag", "[cli]") {
     const RunResult word = run(bin("pcp_reconstruct") + " --sign-repair yes x.ply");
     INFO("stderr: " << word.err);

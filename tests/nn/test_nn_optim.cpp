@@ -89,6 +89,14 @@ TEST_CASE("nn: learning-rate schedules and gradient clipping", "[nn]") {
     CHECK(cos.at(60) == Approx(0.5 * (1e-3 + 1e-5)));
     CHECK(cos.at(110) == Approx(1e-5));
     CHECK(cos.at(1000) == Approx(1e-5));
+    // A decay that starts later (the query fit's stop rule): the peak until decay_start.
+    cos.decay_start = 60;
+    CHECK(cos.at(59) == Approx(1e-3));
+    CHECK(cos.at(60) == Approx(1e-3));
+    CHECK(cos.at(85) == Approx(0.5 * (1e-3 + 1e-5)));
+    CHECK(cos.at(110) == Approx(1e-5));
+    cos.decay_start = 5;  // before the end of the warm-up: the warm-up's end
+    CHECK(cos.at(60) == Approx(0.5 * (1e-3 + 1e-5)));
 
     Vec<float> g1(2), g2(1);
     g1 << 3.0f, 0.0f;

@@ -12,6 +12,7 @@
 
 #include <omp.h>
 
+#include <cmath>
 #include <filesystem>
 #include <string>
 
@@ -273,4 +274,65 @@ TEST_CASE("query fit of several clouds: one is the single-cloud fit, two share Q
                       Catch::Contains("ablation none"));
     CHECK_THROWS_AS(pcp::QueryNetFitter(std::vector<const pcp::PreparedCloud*>{}, toy_prior(), toy_fit(QueryAblation::None, 10)),
                     pcp::Error);
+}
+
+TEST_CASE("query fit: the stop rule ends the fit after a plateau and a cooldown, within the cap, and resumes exactly", "[ablation]") {
+    const ThreadsGuard threads(1);
+    pcp::QueryFitOptions o = toy_fit(QueryAblation::None, 4000);
+    o.stop.enabled = true;
+    o.stop.window = 50;
+    o.stop.min_steps = 100;
+    o.stop.tolerance = 0.02;
+    o.stop.cooldown_fraction = 0.25;
+    o.stop.min_cooldown = 50;
+    pcp::QueryNetFitter fitter(torus(), toy_prior(), o);
+    CHECK(fitter.planned_steps() == 4000);
+    CHECK(fitter.plateau_step() == -1);
+    REQUIRE(fitter.run());
+    const std::int64_t plateau = fitter.plateau_step();
+    INFO("plateau at " << plateau << ", stopped at " << fitter.steps_done());
+    REQUIRE(plateau >= 100);
+    CHECK(plateau % 50 == 0);
+    CHECK(fitter.steps_done() == std::max<std::int64_t>(plateau + 50, plateau + std::llround(0.25 * plateau)));
+    CHECK(fitter.steps_done() == fitter.planned_steps());
+    CHECK(fitter.steps_done() < 4000);
+
+    // Off: exactly the steps asked for.
+    pcp::QueryFitOptions fixed = toy_fit(QueryAblation::None, 120);
+    pcp::QueryNetFitter plain(torus(), toy_prior(), fixed);
+    REQUIRE(plain.run());
+    CHECK(plain.steps_done() == 120);
+    CHECK(plain.plateau_step() == -1);
+
+    // The cap holds when no plateau comes before it (tolerance 0: never a plateau).
+    pcp::QueryFitOptions capped = o;
+    capped.steps = 300;
+    capped.stop.tolerance = 0.0;
+    pcp::QueryNetFitter short_fit(torus(), toy_prior(), capped);
+    REQUIRE(short_fit.run());
+    CHECK(short_fit.steps_done() == 300);
+
+    // Interrupted after the plateau and resumed: the same end and the same weights.
+    const std::string dir = std::string(PCP_TEST_TMP_DIR) + "/stop_rule";
+    std::filesystem::create_directories(dir);
+    const std::string ckpt = dir + "/q.ckpt";
+    {
+        pcp::QueryNetFitter first(torus(), toy_prior(), o);
+        while (first.steps_done() < plateau + 10) first.step();
+        CHECK(first.plateau_step() == plateau);
+        first.checkpoint(ckpt);
+    }
+    pcp::QueryNetFitter resumed(torus(), toy_prior(), o);
+    resumed.resume(ckpt);
+    CHECK(resumed.planned_steps() == fitter.steps_done());
+    CHECK(resumed.plateau_step() == plateau);
+    REQUIRE(resumed.run());
+    CHECK(resumed.steps_done() == fitter.steps_done());
+    Eigen::VectorXf a(torus().size()), b(torus().size());
+    fitter.sdf(fitter.cloud().unit(), a);
+    resumed.sdf(resumed.cloud().unit(), b);
+    CHECK((a - b).cwiseAbs().maxCoeff() == 0.0f);
+    // The rule is part of the fingerprint.
+    pcp::QueryNetFitter other(torus(), toy_prior(), toy_fit(QueryAblation::None, 4000));
+    CHECK_THROWS_WITH(other.resume(ckpt), Catch::Contains("other inputs or settings"));
 }

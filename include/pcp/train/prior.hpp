@@ -38,6 +38,8 @@ struct PriorNetworkOptions {
     int pointnet_hidden = 512; ///< PointNet head's hidden width (1024 -> 512 -> C)
 };
 
+class LocalPrior;
+
 struct PriorTrainOptions {
     RegionOptions regions;           ///< grid 6, normalisation both (paper)
     SamplingOptions sampling;        ///< 40 queries per point at 0.5 sigma_p (paper / release)
@@ -47,6 +49,10 @@ struct PriorTrainOptions {
     std::int64_t max_steps = 0;      ///< if > 0, stop after this many steps instead
     /// Adam (release: lr 1e-4, constant), seed, progress (stage "prior"), checkpoints, resume.
     TrainingSchedule schedule = TrainingSchedule::every(50, 1000);
+    /// If set, training starts from this prior's weights (fine-tuning, e.g. the built-in prior on
+    /// the input: ReconstructOptions::prior_tune_steps); its network sizes and region settings
+    /// replace `network` and `regions`.
+    std::shared_ptr<const LocalPrior> start;
 
     /// Named presets: "paper" (the paper's sizes and schedule), "default", "fast" (the self-prior
     /// preset used by pcp_reconstruct when no prior is given). Throws pcp::Error for other names.

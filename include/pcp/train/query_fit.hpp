@@ -65,6 +65,22 @@ struct SignGuideOptions {
     VisibilityOptions visibility;  ///< the labels, when the fitter is not given them
 };
 
+/// Stop when converged instead of after a fixed count (not in the paper). The fit runs at its
+/// peak rate (after the warm-up) while the loss still falls: every `window` steps it compares the
+/// window's mean loss with the previous window's; once the relative decrease is below `tolerance`
+/// (and at least min_steps are done), the rate decays (cosine to 0.02 x) over a cooldown of
+/// cooldown_fraction x the steps done (at least min_cooldown), and the fit stops there.
+/// QueryFitOptions::steps stays the cap: without a plateau the cooldown is placed to end at it.
+/// With the rule on, the schedule's own lr_schedule is not used.
+struct StopRule {
+    bool enabled = false;
+    std::int64_t window = 200;
+    double tolerance = 0.01;
+    std::int64_t min_steps = 400;
+    double cooldown_fraction = 0.25;
+    std::int64_t min_cooldown = 200;
+};
+
 struct QueryFitOptions {
     SamplingOptions sampling;        ///< global queries around the cloud (paper: 40 per point)
     int width = 512;                 ///< Q's width (paper: 512)
@@ -76,6 +92,7 @@ struct QueryFitOptions {
     bool zero_shift_init = true;     ///< start with dq = 0 (q_l' = q_g); modes with a shift only
     QueryAblation ablation = QueryAblation::None;  ///< the paper's ablations (see above)
     SignGuideOptions sign_guide;     ///< not in the paper (see above)
+    StopRule stop;                   ///< not in the paper (see above); off: exactly `steps` steps
 };
 
 /// The resumable stage-2 fitter (F frozen, or trained with Q in the no-prior / tune-prior
@@ -121,6 +138,11 @@ public:
     int guided_per_step() const;
     /// Queries in the pool the steps draw from: at most steps x queries_per_step (SamplingOptions::max_queries).
     std::int64_t pool_size() const;
+    /// The steps the fit will end at: options.steps, or with the stop rule the end of its cooldown
+    /// once a plateau was found (at most options.steps).
+    std::int64_t planned_steps() const;
+    /// The step at which the stop rule found the plateau (-1: not found, or the rule is off).
+    std::int64_t plateau_step() const;
 
 private:
     struct Impl;
