@@ -15,7 +15,7 @@
 #include <cmath>
 #include <set>
 
-TEST_CASE("training shapes are deterministic and lie on their surface", "[train][shapes]") {
+TEST_CASE("training shapes are deterministic and lie on their surface", "[train][shapes][heavy]") {
     std::set<std::string> kinds;
     for (int i = 0; i < 12; ++i) {
         const pcp::TrainingShape shape = pcp::make_training_shape(i, 5);
@@ -91,7 +91,7 @@ TEST_CASE("the built-in prior is the asset file and evaluates", "[train][builtin
     CHECK(generated);
 }
 
-TEST_CASE("reconstruct: the built-in prior frozen or tuned, a self-prior, and auto by the noise", "[train][builtin]") {
+TEST_CASE("reconstruct: the built-in prior frozen or tuned, a self-prior, and auto by the noise", "[train][builtin][heavy]") {
     // Not the default yet (presets.cpp says why): a self-prior unless asked.
     CHECK(pcp::ReconstructOptions::preset("default").prior_source == pcp::PriorSource::SelfPrior);
     CHECK(pcp::ReconstructOptions::preset("fast").prior_source == pcp::PriorSource::SelfPrior);
