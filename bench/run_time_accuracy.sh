@@ -47,7 +47,8 @@ score() {
 
 sgemm="not measured (bench_nn not built)"
 if [ -x "$BIN/bench_nn" ]; then
-    sgemm=$("$BIN/bench_nn" --quick 2>/dev/null | awk '/GFLOP/ && /eigen/ { print; exit }')
+    sgemm=$("$BIN/bench_nn" --quick 2>/dev/null |
+        awk -F'|' '$2 + 0 == 2 && $3 + 0 == 2000 && !done { printf "nn::gemm eigen%s, OpenBLAS%s GFLOP/s (512 x 512 x 2000, 2 threads)", $4, $5; done = 1 }')
 fi
 printf "case\tvariant\tseconds\tscore\n" >"$out/results.tsv"
 for c in "${cases[@]}"; do
