@@ -120,12 +120,21 @@ int main(int argc, char** argv) {
         const std::string save_shapes = args["save-shapes"].as<std::string>();
         if (!save_shapes.empty() && num_shapes == 0) throw pcp::cli::UsageError("--save-shapes needs --shapes N");
         if (inputs.empty() && num_shapes == 0) throw pcp::cli::UsageError("no inputs (give files, directories, --list or --shapes)");
-        if (!save_shapes.empty()) {
+        const std::string output = args["output"].as<std::string>();
+        const bool dry_run = args.count("dry-run") > 0;
+        if (!dry_run && save_shapes.empty()) {  // checked before the shapes are generated
+            if (output.empty()) throw pcp::cli::UsageError("-o/--output is required");
+            pcp::check_output_path(output, inputs);
+        }
+        std::vector<pcp::TrainingCloud> generated;
+        if (num_shapes > 0) {
             pcp::TrainingShapeOptions so;
             so.count = num_shapes;
             so.seed = static_cast<std::uint64_t>(args["shapes-seed"].as<long>());
+            generated = pcp::generate_training_clouds(so);
+        }
+        if (!save_shapes.empty()) {
             std::filesystem::create_directories(save_shapes);
-            const std::vector<pcp::TrainingCloud> generated = pcp::generate_training_clouds(so);
             for (std::size_t i = 0; i < generated.size(); ++i) {
                 char name[32];
                 std::snprintf(name, sizeof name, "shape_%03zu.ply", i);
@@ -136,12 +145,6 @@ int main(int argc, char** argv) {
             }
             log.info("wrote " + std::to_string(generated.size()) + " clouds into " + save_shapes);
             return 0;
-        }
-        const std::string output = args["output"].as<std::string>();
-        const bool dry_run = args.count("dry-run") > 0;
-        if (!dry_run) {
-            if (output.empty()) throw pcp::cli::UsageError("-o/--output is required");
-            pcp::check_output_path(output, inputs);
         }
 
         const auto t_start = std::chrono::steady_clock::now();
@@ -156,12 +159,7 @@ int main(int argc, char** argv) {
             }
             clouds.push_back(std::move(c));
         }
-        if (num_shapes > 0) {
-            pcp::TrainingShapeOptions so;
-            so.count = num_shapes;
-            so.seed = static_cast<std::uint64_t>(args["shapes-seed"].as<long>());
-            for (pcp::TrainingCloud& c : pcp::generate_training_clouds(so)) clouds.push_back(std::move(c));
-        }
+        for (pcp::TrainingCloud& c : generated) clouds.push_back(std::move(c));
         const double t_read = pcp::cli::seconds_since(t_start);
 
         const auto t_prep = std::chrono::steady_clock::now();

@@ -17,7 +17,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <sstream>
 
 #include <omp.h>
@@ -449,10 +448,11 @@ void QueryNetFitter::checkpoint(const std::string& path) const {
         meta.add_number("code_adam_t", tr.adam_code.t);
     }
     meta.add("recent_losses", m.recent.text());
-    if (m.options.stop.enabled) {
-        std::ostringstream stop;
-        stop << m.stop.end << " " << m.stop.plateau << " " << std::hexfloat << m.stop.previous << " " << m.stop.sum;
-        meta.add("stop_rule", stop.str());
+    if (m.options.stop.enabled) {  // exact: 17 digits
+        meta.add_number("stop_end", m.stop.end);
+        meta.add_number("stop_plateau", m.stop.plateau);
+        meta.add_number("stop_previous", m.stop.previous);
+        meta.add_number("stop_sum", m.stop.sum);
     }
     file.metadata = meta.text();
     file.nets.push_back(nn::make_record("query_net", tr.query_net, &tr.adam_query));
@@ -484,18 +484,13 @@ void QueryNetFitter::resume(const std::string& path) {
     m.trainer->steps = static_cast<std::int64_t>(file.step);
     m.recent.restore(meta.has("recent_losses") ? meta.get("recent_losses") : "", path);
     if (m.options.stop.enabled) {
-        PCP_CHECK(meta.has("stop_rule"), path << ": the checkpoint holds no stop-rule state");
-        std::istringstream in(meta.get("stop_rule"));
         Impl::StopState st;
-        std::string previous, sum;
-        in >> st.end >> st.plateau >> previous >> sum;
-        char* e1 = nullptr;
-        char* e2 = nullptr;
-        st.previous = std::strtod(previous.c_str(), &e1);
-        st.sum = std::strtod(sum.c_str(), &e2);
-        PCP_CHECK(!in.fail() && e1 && *e1 == '\0' && e2 && *e2 == '\0' && !previous.empty() && !sum.empty() &&
-                      st.end >= m.trainer->steps && st.end <= m.options.steps && st.plateau <= st.end,
-                  path << ": malformed stop-rule state '" << meta.get("stop_rule") << "'");
+        st.end = meta.number<std::int64_t>("stop_end");
+        st.plateau = meta.number<std::int64_t>("stop_plateau");
+        st.previous = meta.number<double>("stop_previous");
+        st.sum = meta.number<double>("stop_sum");
+        PCP_CHECK(st.end >= m.trainer->steps && st.end <= m.options.steps && st.plateau <= st.end,
+                  path << ": inconsistent stop-rule state (end " << st.end << ", plateau " << st.plateau << ")");
         m.stop = st;
         if (st.plateau >= 0 && st.end < m.options.steps) m.set_cooldown(st.plateau, st.end);
     }
