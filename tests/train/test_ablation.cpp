@@ -332,6 +332,20 @@ TEST_CASE("query fit: the stop rule ends the fit after a plateau and a cooldown,
     fitter.sdf(fitter.cloud().unit(), a);
     resumed.sdf(resumed.cloud().unit(), b);
     CHECK((a - b).cwiseAbs().maxCoeff() == 0.0f);
+    // Interrupted before the plateau, in the middle of a window: the window's partial sum is kept.
+    {
+        pcp::QueryNetFitter first(torus(), toy_prior(), o);
+        while (first.steps_done() < plateau - 25) first.step();
+        CHECK(first.plateau_step() == -1);
+        first.checkpoint(ckpt);
+    }
+    pcp::QueryNetFitter early(torus(), toy_prior(), o);
+    early.resume(ckpt);
+    REQUIRE(early.run());
+    CHECK(early.plateau_step() == plateau);
+    CHECK(early.steps_done() == fitter.steps_done());
+    early.sdf(early.cloud().unit(), b);
+    CHECK((a - b).cwiseAbs().maxCoeff() == 0.0f);
     // The rule is part of the fingerprint.
     pcp::QueryNetFitter other(torus(), toy_prior(), toy_fit(QueryAblation::None, 4000));
     CHECK_THROWS_WITH(other.resume(ckpt), Catch::Contains("other inputs or settings"));
