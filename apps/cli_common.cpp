@@ -187,7 +187,7 @@ ProgressCallback make_progress_printer(const Log& log, std::int64_t every, std::
     auto state = std::make_shared<State>();
     const bool quiet = log.flags && log.flags->quiet;
     const bool terminal = !quiet && ::isatty(::fileno(stderr)) != 0;
-    return [log, every, state, memory, quiet, terminal](const Progress& p) {
+    return [every, state, memory, quiet, terminal](const Progress& p) {
         if (p.stage != state->stage) {
             end_progress_line();
             state->stage = p.stage;

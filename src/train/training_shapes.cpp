@@ -21,7 +21,6 @@ namespace {
 
 using Sdf = std::function<double(const Eigen::Vector3d&)>;
 using V3 = Eigen::Vector3d;
-constexpr double kPi = 3.14159265358979323846;
 
 double uniform(Rng& rng, double lo, double hi) { return lo + (hi - lo) * rng.uniform(); }
 

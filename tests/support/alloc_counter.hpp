@@ -10,7 +10,16 @@
 #include <cstdlib>
 #include <malloc.h>  // memalign: declared before the definitions below
 
+// GCC says ASan with __SANITIZE_ADDRESS__, clang through __has_feature.
 #if defined(__SANITIZE_ADDRESS__)
+#define PCP_ALLOC_COUNTER_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define PCP_ALLOC_COUNTER_ASAN 1
+#endif
+#endif
+
+#if defined(PCP_ALLOC_COUNTER_ASAN)
 // From the sanitizer runtime's public interface (declared here: Debian's GCC does not ship
 // <sanitizer/allocator_interface.h>).
 extern "C" int __sanitizer_install_malloc_and_free_hooks(
@@ -25,7 +34,7 @@ inline void note_allocation() {
 }
 }  // namespace alloc_counter
 
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(PCP_ALLOC_COUNTER_ASAN)
 namespace alloc_counter {
 inline void count_malloc_hook(const volatile void*, std::size_t) { note_allocation(); }
 inline void ignore_free_hook(const volatile void*) {}
