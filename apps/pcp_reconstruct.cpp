@@ -295,6 +295,9 @@ int main(int argc, char** argv) {
             ("fine-repair", "on | off: flip thin regions of the fine grid whose boundary is mostly a zero crossing away from "
                             "the data (membranes across holes; not in the paper; include/pcp/mesh/fine_repair.hpp)",
              cxxopts::value<std::string>()->default_value(d.fine_repair.enabled ? "on" : "off"))
+            ("tunnel-fill", "on | off: plug the passages through the solid that are two cells across or less (the small "
+                            "handles of a bumpy field; evaluates the whole grid; not in the paper; include/pcp/mesh/tunnel_fill.hpp)",
+             cxxopts::value<std::string>()->default_value(d.tunnel_fill.enabled ? "on" : "off"))
             ("surface-fit", "on | off: remove mesh components with no input points near them and move the surface onto "
                             "the data (not in the paper; include/pcp/mesh/surface_fit.hpp)",
              cxxopts::value<std::string>()->default_value(d.surface_fit.enabled ? "on" : "off"))
@@ -446,6 +449,11 @@ int main(int argc, char** argv) {
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--fine-repair must be on or off (got '" + v + "')");
             o.fine_repair.enabled = v == "on";
         }
+        if (args.count("tunnel-fill")) {
+            const std::string v = args["tunnel-fill"].as<std::string>();
+            if (v != "on" && v != "off") throw pcp::cli::UsageError("--tunnel-fill must be on or off (got '" + v + "')");
+            o.tunnel_fill.enabled = v == "on";
+        }
         if (args.count("surface-fit")) {
             const std::string v = args["surface-fit"].as<std::string>();
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--surface-fit must be on or off (got '" + v + "')");
@@ -594,6 +602,9 @@ int main(int argc, char** argv) {
                                    : "filled " + std::to_string(report.cavity_fill.cavities) + " pockets")
           << ", fine repair flipped " << report.fine_repair.flipped_components << " of " << report.fine_repair.components
           << " thin regions" << (report.fine_repair.skipped ? " (skipped: grid too large)" : "")
+          << ", tunnel fill " << (report.tunnel_fill.skipped ? std::string("skipped (grid too large)")
+                                   : "plugged " + std::to_string(report.tunnel_fill.plugged) + " of " +
+                                         std::to_string(report.tunnel_fill.candidates) + " narrow passages")
           << ", surface fit removed " << report.surface_fit.removed_components << " of " << report.surface_fit.components
           << " components (no input points near them)" << (report.smoothed ? ", smoothed" : "")
           << (o.scene.enabled ? ", scene mode removed " + std::to_string(report.scene_trimmed) + " faces with no data near them"

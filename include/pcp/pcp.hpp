@@ -24,6 +24,7 @@
 
 #include "pcp/mesh/cavity_fill.hpp"
 #include "pcp/mesh/fine_repair.hpp"
+#include "pcp/mesh/tunnel_fill.hpp"
 #include "pcp/mesh/marching_cubes.hpp"
 #include "pcp/mesh/mesh_check.hpp"
 #include "pcp/mesh/sdf_grid.hpp"

@@ -133,7 +133,7 @@ def test_the_gil_is_released_while_the_library_works(sphere_prior):
     thread = threading.Thread(target=count)
     thread.start()
     start = time.time()
-    pcp.reconstruct(points, threads=1, prior=sphere_prior, preset="fast", steps=100, resolution=40)
+    pcp.reconstruct(points, prior=sphere_prior, preset="fast", steps=100, resolution=40)
     elapsed = time.time() - start
     stop.set()
     thread.join()

@@ -65,6 +65,7 @@ ReconstructOptions ReconstructOptions::preset(const std::string& name) {
         o.sign_repair.enabled = false;
         o.cavity_fill.enabled = false;
         o.fine_repair.enabled = false;
+        o.tunnel_fill.enabled = false;
         o.thin_offset = 0;
         return o;
     }

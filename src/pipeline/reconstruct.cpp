@@ -231,7 +231,7 @@ VisibilityLabels visibility_labels(const PreparedCloud& cloud, const Reconstruct
 }
 
 /// From the fitted field of cloud `index` to its mesh in the input frame: sign, thin offset,
-/// winding sign, sign repair, grid, cavity fill, fine repair, marching cubes, surface fit,
+/// winding sign, sign repair, grid, cavity fill, fine repair, tunnel fill, marching cubes, surface fit,
 /// smoothing, normals.
 Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cloud, const Eigen::Ref<const Points>& all_points,
                 bool subsampled, const VisibilityLabels& labels, const ReconstructOptions& options, ReconstructReport& r,
@@ -309,7 +309,9 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     }
     // The cavity fill needs every sample of the lattice (include/pcp/mesh/cavity_fill.hpp).
     const std::int64_t lattice = std::int64_t(options.resolution + 1) * (options.resolution + 1) * (options.resolution + 1);
-    if (options.cavity_fill.enabled && lattice <= options.cavity_fill.max_samples) go.band = NarrowBand::Dense;
+    if ((options.cavity_fill.enabled && lattice <= options.cavity_fill.max_samples) ||
+        (options.tunnel_fill.enabled && lattice <= options.tunnel_fill.max_samples))
+        go.band = NarrowBand::Dense;
     SdfGrid grid = go.band == NarrowBand::NearPoints ? evaluate_sdf_grid(field, spec, go, cloud.unit())
                                                      : evaluate_sdf_grid(field, spec, go);
     // Enclosed pockets of "outside": the hollow shells of noisy scans (include/pcp/mesh/cavity_fill.hpp).
@@ -318,6 +320,14 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     r.cavity_fill = fill_cavities(grid, fill);
     // Membranes and bubbles too thin for the coarse grid (include/pcp/mesh/fine_repair.hpp).
     r.fine_repair = repair_fine_grid(grid, cloud.tree(), options.fine_repair);
+    // Passages through the solid too narrow for the data to support: the small handles of a bumpy
+    // field (include/pcp/mesh/tunnel_fill.hpp); a pocket a plug closed off is then a cavity.
+    r.tunnel_fill = fill_tunnels(grid, options.tunnel_fill);
+    if (r.tunnel_fill.plugged > 0) {
+        const CavityFillStats again = fill_cavities(grid, fill);
+        r.cavity_fill.cavities += again.cavities;
+        r.cavity_fill.cavity_samples += again.cavity_samples;
+    }
     r.winding_corrected = winding.corrected();
     r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations;
     r.seconds_grid = seconds_since(t0);

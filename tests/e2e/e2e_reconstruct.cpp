@@ -1,4 +1,6 @@
 // End-to-end: reconstruct test-generated shapes with a reduced preset and bound the error.
+#include "pcp/cloud/kdtree.hpp"
+#include "pcp/eval/diagnose.hpp"
 #include "pcp/eval/eval.hpp"
 #include "pcp/mesh/mesh_check.hpp"
 #include "pcp/reconstruct.hpp"
@@ -10,6 +12,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <filesystem>
 
 
@@ -98,4 +101,51 @@ TEST_CASE("e2e: the default shape reconstructs closed, outward and close to its 
     // sign repair); bound with margin. The fast/default presets do better; this guards the
     // pipeline, not the preset's quality.
     CHECK(r.metrics.chamfer_l1 < 0.02);
+}
+
+// Issue 15's target for the README's main command (pcp_reconstruct --preset fast on the built-in
+// shape: 20,000 points, noise 0.002, seed 1): one closed component of genus 1 (the through-hole
+// open, no small handles), and the thin fin present. About a minute on 2 cores.
+TEST_CASE("e2e: the README's command gives the built-in shape as one closed component of genus 1 with its fin", "[e2e]") {
+    const pcp::PointCloud cloud = pcp::sample_default_shape(20000, 0.002, 1);
+    pcp::ReconstructOptions options = pcp::ReconstructOptions::preset("fast");
+    pcp::ReconstructReport report;
+    const pcp::Mesh mesh = pcp::reconstruct(cloud.points, nullptr, options, &report);
+    REQUIRE(mesh.faces.rows() > 0);
+    const pcp::MeshTopology topo = pcp::mesh_topology(mesh);
+    const std::vector<pcp::ComponentInfo> parts = pcp::mesh_components(mesh);
+    WARN("built-in shape, fast preset: " << parts.size() << " components, Euler characteristic " << topo.euler()
+                                         << ", tunnel fill plugged " << report.tunnel_fill.plugged << " of "
+                                         << report.tunnel_fill.candidates);
+    CHECK(topo.closed_manifold_oriented());
+    REQUIRE(parts.size() == 1);
+    CHECK(parts[0].closed);
+    CHECK(parts[0].genus == 1);  // V - E + F = 2 - 2g = 0
+    // The hole is open: no mesh vertex within 0.1 of its axis (x = -0.2, y = 0; radius 0.15).
+    double nearest_axis = 1e9;
+    for (Eigen::Index i = 0; i < mesh.vertices.rows(); ++i)
+        nearest_axis = std::min(nearest_axis, std::hypot(mesh.vertices(i, 0) + 0.2, mesh.vertices(i, 1)));
+    CHECK(nearest_axis > 0.1);
+    // The fin (0.03 thick, above the block's top at z = 0.2) is there and whole (a hole in it would
+    // be a handle, caught above): its exact surface samples have a mesh vertex near them, within
+    // 0.015 (1.3 cells of the fast preset's grid) for nearly all, within the fin's thickness for
+    // every one (the rounded top corners are the farthest).
+    const pcp::PointsF vertices = mesh.vertices.cast<float>();
+    const pcp::KdTree tree(vertices);
+    const pcp::PointCloud truth = pcp::sample_default_shape(20000, 0.0, 2);
+    std::vector<float> fin_distances;
+    for (Eigen::Index i = 0; i < truth.points.rows(); ++i) {
+        const Eigen::Vector3d p = truth.points.row(i).transpose();
+        if (p.z() < 0.25 || std::abs(p.y()) > 0.02) continue;  // the fin above the block
+        float d = 0;
+        tree.nearest_point(p.cast<float>(), &d);
+        fin_distances.push_back(d);
+    }
+    REQUIRE(fin_distances.size() > 500);
+    std::sort(fin_distances.begin(), fin_distances.end());
+    const auto near = std::count_if(fin_distances.begin(), fin_distances.end(), [](float d) { return d <= 0.015f; });
+    WARN("fin: " << fin_distances.size() << " exact samples, median distance to the mesh " << fin_distances[fin_distances.size() / 2]
+                 << ", " << near << " within 0.015, largest " << fin_distances.back());
+    CHECK(static_cast<double>(near) >= 0.97 * static_cast<double>(fin_distances.size()));
+    CHECK(fin_distances.back() <= 0.03f);
 }

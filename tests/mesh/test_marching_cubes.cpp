@@ -216,7 +216,7 @@ std::vector<AnalyticCase> analytic_cases() {
 
 }  // namespace
 
-TEST_CASE("marching cubes: analytic shapes give closed oriented meshes near the surface", "[mc]") {
+TEST_CASE("marching cubes: analytic shapes give closed oriented meshes near the surface", "[mc][heavy]") {
     for (const AnalyticCase& shape : analytic_cases()) {
         for (int resolution : {16, 32, 64}) {
             for (auto rule : {pcp::McAmbiguity::AsymptoticDecider, pcp::McAmbiguity::SeparateInside}) {

@@ -79,7 +79,7 @@ TEST_CASE("sdf_grid: a dense grid stores every sample once per block, truncated 
     CHECK(grid.find_block(4, 0, 0) == -1);
 }
 
-TEST_CASE("sdf_grid: both narrow bands give exactly the dense mesh", "[sdf_grid]") {
+TEST_CASE("sdf_grid: both narrow bands give exactly the dense mesh", "[sdf_grid][heavy]") {
     const std::vector<std::pair<const char*, ScalarSdf>> shapes = {
         {"sphere", sphere_sdf({0.031, -0.017, 0.009}, 0.41)},
         {"torus", torus_sdf({0.02, 0.01, -0.015}, 0.33, 0.13)},

@@ -79,7 +79,7 @@ TEST_CASE("surface fit: a rippled sphere is brought onto its points, topology un
     CHECK(pcp::is_closed_and_oriented(out));
 }
 
-TEST_CASE("surface fit: the two sides of a thin slab stay apart", "[surface_fit]") {
+TEST_CASE("surface fit: the two sides of a thin slab stay apart", "[surface_fit][heavy]") {
     // A slab of half-thickness 0.01, as thick as two spacings of its points: a vertex's nearest
     // points include the other side's, yet each side's vertices must end on their own side, not
     // between them (with bandwidth 10 and no shrinking they do not: checked when this was written).
