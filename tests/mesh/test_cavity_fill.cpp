@@ -15,12 +15,6 @@ using namespace pcp_test;
 
 namespace {
 
-pcp::SdfGrid dense(const ScalarSdf& f, int resolution) {
-    pcp::SdfGridOptions o;
-    o.band = pcp::NarrowBand::Dense;
-    return pcp::evaluate_sdf_grid(batch(f), cube_grid(resolution), o);
-}
-
 /// A sphere of radius R whose field is a shell: negative only between R - t and R.
 ScalarSdf hollow_sphere(double R, double t) {
     return [=](const Eigen::Vector3d& p) { return std::max(p.norm() - R, (R - t) - p.norm()); };
@@ -29,7 +23,7 @@ ScalarSdf hollow_sphere(double R, double t) {
 }  // namespace
 
 TEST_CASE("cavity fill: a hollow sphere's core is filled", "[cavity_fill]") {
-    pcp::SdfGrid grid = dense(hollow_sphere(0.4, 0.06), 64);
+    pcp::SdfGrid grid = dense_grid(hollow_sphere(0.4, 0.06), 64);
     REQUIRE(topology(pcp::marching_cubes(grid)).euler() == 4);  // outer and inner sheet
     const pcp::CavityFillStats st = pcp::fill_cavities(grid);
     CHECK_FALSE(st.skipped);
@@ -51,7 +45,7 @@ TEST_CASE("cavity fill: a pinhole through the shell does not let the outside in"
         const double tunnel = std::max(std::hypot(p.y(), p.z()) - 0.025, -p.x());
         return std::max(shell(p), -tunnel);
     };
-    pcp::SdfGrid grid = dense(pierced, 64);
+    pcp::SdfGrid grid = dense_grid(pierced, 64);
     const pcp::SdfGrid untouched = grid;
     const pcp::CavityFillStats st = pcp::fill_cavities(grid);
     CHECK(st.cavities >= 1);
@@ -72,14 +66,14 @@ TEST_CASE("cavity fill: a pinhole through the shell does not let the outside in"
 }
 
 TEST_CASE("cavity fill: a torus's hole and an open cup stay outside", "[cavity_fill]") {
-    pcp::SdfGrid torus = dense(torus_sdf(Eigen::Vector3d::Zero(), 0.3, 0.1), 64);
+    pcp::SdfGrid torus = dense_grid(torus_sdf(Eigen::Vector3d::Zero(), 0.3, 0.1), 64);
     const std::vector<float> before = torus.values;
     CHECK(pcp::fill_cavities(torus).cavity_samples == 0);
     CHECK(torus.values == before);
     // A cup: a sphere shell cut open at the top (wide opening).
     const ScalarSdf shell = hollow_sphere(0.4, 0.06);
     const ScalarSdf cup = [=](const Eigen::Vector3d& p) { return std::max(shell(p), p.z() - 0.2); };
-    pcp::SdfGrid cup_grid = dense(cup, 64);
+    pcp::SdfGrid cup_grid = dense_grid(cup, 64);
     CHECK(pcp::fill_cavities(cup_grid).cavity_samples == 0);
 }
 
@@ -88,7 +82,7 @@ TEST_CASE("cavity fill: sparse grids are skipped, disabled is the identity, bad 
     const std::vector<float> before = sparse.values;
     CHECK(pcp::fill_cavities(sparse).skipped);
     CHECK(sparse.values == before);
-    pcp::SdfGrid grid = dense(hollow_sphere(0.4, 0.06), 32);
+    pcp::SdfGrid grid = dense_grid(hollow_sphere(0.4, 0.06), 32);
     pcp::CavityFillOptions off;
     off.enabled = false;
     CHECK(pcp::fill_cavities(grid, off).cavity_samples == 0);

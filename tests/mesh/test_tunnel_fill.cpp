@@ -14,12 +14,6 @@ using namespace pcp_test;
 
 namespace {
 
-pcp::SdfGrid dense(const ScalarSdf& f, int resolution) {
-    pcp::SdfGridOptions o;
-    o.band = pcp::NarrowBand::Dense;
-    return pcp::evaluate_sdf_grid(batch(f), cube_grid(resolution), o);
-}
-
 // A slab 0.3 thick, 0.8 wide, with a drilled cylinder of radius r along z through it.
 ScalarSdf drilled_slab(double r) {
     const ScalarSdf slab = box_sdf(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.4, 0.4, 0.15));
@@ -32,7 +26,7 @@ std::int64_t genus(const pcp::Mesh& m) { return (2 - topology(m).euler()) / 2; }
 
 TEST_CASE("tunnel fill: a passage a cell wide is plugged, a wide hole stays open", "[tunnel_fill]") {
     // 64 cells over 1.2: cell 0.01875. A radius of 0.012 is a passage 1.3 cells across.
-    pcp::SdfGrid narrow = dense(drilled_slab(0.012), 64);
+    pcp::SdfGrid narrow = dense_grid(drilled_slab(0.012), 64);
     REQUIRE(genus(pcp::marching_cubes(narrow)) == 1);
     const pcp::TunnelFillStats st = pcp::fill_tunnels(narrow);
     CHECK_FALSE(st.skipped);
@@ -43,14 +37,14 @@ TEST_CASE("tunnel fill: a passage a cell wide is plugged, a wide hole stays open
     CHECK(topology(plugged).closed_manifold_oriented());
 
     // A hole 0.2 across (ten cells) is data, not a pinch: untouched.
-    pcp::SdfGrid wide = dense(drilled_slab(0.1), 64);
+    pcp::SdfGrid wide = dense_grid(drilled_slab(0.1), 64);
     const std::vector<float> before = wide.values;
     CHECK(pcp::fill_tunnels(wide).plugged == 0);
     CHECK(wide.values == before);
     CHECK(genus(pcp::marching_cubes(wide)) == 1);
 
     // The same for a torus's hole.
-    pcp::SdfGrid torus = dense(torus_sdf(Eigen::Vector3d::Zero(), 0.3, 0.1), 64);
+    pcp::SdfGrid torus = dense_grid(torus_sdf(Eigen::Vector3d::Zero(), 0.3, 0.1), 64);
     const std::vector<float> torus_before = torus.values;
     CHECK(pcp::fill_tunnels(torus).plugged == 0);
     CHECK(torus.values == torus_before);
@@ -64,7 +58,7 @@ TEST_CASE("tunnel fill: a narrow groove and a blind hole are left alone", "[tunn
         const double blind = std::max(std::hypot(p.x() - 0.2, p.y() - 0.2) - 0.012, p.z() + 0.05);
         return std::max(slab(p), -std::min(groove, blind));
     };
-    pcp::SdfGrid grid = dense(grooved, 64);
+    pcp::SdfGrid grid = dense_grid(grooved, 64);
     REQUIRE(genus(pcp::marching_cubes(grid)) == 0);
     const std::vector<float> before = grid.values;
     const pcp::TunnelFillStats st = pcp::fill_tunnels(grid);
@@ -74,7 +68,7 @@ TEST_CASE("tunnel fill: a narrow groove and a blind hole are left alone", "[tunn
 }
 
 TEST_CASE("tunnel fill: off, or a sparse grid, changes nothing", "[tunnel_fill]") {
-    pcp::SdfGrid grid = dense(drilled_slab(0.012), 32);
+    pcp::SdfGrid grid = dense_grid(drilled_slab(0.012), 32);
     const std::vector<float> before = grid.values;
     pcp::TunnelFillOptions off;
     off.enabled = false;

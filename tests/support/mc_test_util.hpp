@@ -61,6 +61,13 @@ inline pcp::GridSpec cube_grid(int resolution, double half = 0.6) {
     return spec;
 }
 
+/// `f` on every sample of cube_grid(resolution) (the dense grid of the cavity and tunnel fills).
+inline pcp::SdfGrid dense_grid(const ScalarSdf& f, int resolution) {
+    pcp::SdfGridOptions o;
+    o.band = pcp::NarrowBand::Dense;
+    return pcp::evaluate_sdf_grid(batch(f), cube_grid(resolution), o);
+}
+
 // The topology counts are the library's own (pcp/mesh/mesh_check.hpp).
 using pcp::MeshTopology;
 inline MeshTopology topology(const pcp::Mesh& mesh) { return pcp::mesh_topology(mesh); }
