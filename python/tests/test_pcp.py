@@ -72,7 +72,7 @@ def test_progress_sees_every_stage(sphere_result):
 
 def test_float32_input_gives_the_same_kind_of_result(sphere_result, sphere_prior):
     points = sphere_result[0].astype(np.float32)
-    vertices, faces = pcp.reconstruct(points, prior=sphere_prior, preset="fast", steps=200, resolution=48)
+    vertices, faces = pcp.reconstruct(points, prior=sphere_prior, preset="fast", steps=100, resolution=40)
     assert np.abs(np.linalg.norm(vertices - CENTRE, axis=1) - RADIUS).max() < 0.02 * RADIUS
 
 
