@@ -298,6 +298,9 @@ int main(int argc, char** argv) {
             ("tunnel-fill", "on | off: plug the passages through the solid that are two cells across or less (the small "
                             "handles of a bumpy field; evaluates the whole grid; not in the paper; include/pcp/mesh/tunnel_fill.hpp)",
              cxxopts::value<std::string>()->default_value(d.tunnel_fill.enabled ? "on" : "off"))
+            ("shell-centre", "on | off: on a noisy (denoised) cloud, put the surface in the middle of the noise band's "
+                             "shell instead of on its outer wall (not in the paper; include/pcp/mesh/shell_centre.hpp)",
+             cxxopts::value<std::string>()->default_value(d.shell_centre.enabled ? "on" : "off"))
             ("surface-fit", "on | off: remove mesh components with no input points near them and move the surface onto "
                             "the data (not in the paper; include/pcp/mesh/surface_fit.hpp)",
              cxxopts::value<std::string>()->default_value(d.surface_fit.enabled ? "on" : "off"))
@@ -454,6 +457,11 @@ int main(int argc, char** argv) {
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--tunnel-fill must be on or off (got '" + v + "')");
             o.tunnel_fill.enabled = v == "on";
         }
+        if (args.count("shell-centre")) {
+            const std::string v = args["shell-centre"].as<std::string>();
+            if (v != "on" && v != "off") throw pcp::cli::UsageError("--shell-centre must be on or off (got '" + v + "')");
+            o.shell_centre.enabled = v == "on";
+        }
         if (args.count("surface-fit")) {
             const std::string v = args["surface-fit"].as<std::string>();
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--surface-fit must be on or off (got '" + v + "')");
@@ -576,6 +584,13 @@ int main(int argc, char** argv) {
         }
         std::error_code ec;
         if (!o.keep_checkpoints) std::filesystem::remove(o.fit.schedule.checkpoint_path, ec);
+        std::string shell_text;  // the shell centring, where it ran (a noisy cloud with a filled shell)
+        if (report.shell_centre.applied) {
+            std::ostringstream t;
+            t << ", shell centring moved " << report.shell_centre.moved << " vertices inward (by " << report.shell_centre.mean_move
+              << " on average, unit box)";
+            shell_text = t.str();
+        }
         std::ostringstream s;
         s << "wrote " << output << ": " << mesh.vertices.rows() << " vertices, " << mesh.faces.rows() << " faces, "
           << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "")
@@ -605,6 +620,7 @@ int main(int argc, char** argv) {
           << ", tunnel fill " << (report.tunnel_fill.skipped ? std::string("skipped (grid too large)")
                                    : "plugged " + std::to_string(report.tunnel_fill.plugged) + " of " +
                                          std::to_string(report.tunnel_fill.candidates) + " narrow passages")
+          << shell_text
           << ", surface fit removed " << report.surface_fit.removed_components << " of " << report.surface_fit.components
           << " components (no input points near them)" << (report.smoothed ? ", smoothed" : "")
           << (o.scene.enabled ? ", scene mode removed " + std::to_string(report.scene_trimmed) + " faces with no data near them"

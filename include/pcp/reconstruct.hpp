@@ -11,6 +11,7 @@
 #include "pcp/mesh/cavity_fill.hpp"
 #include "pcp/mesh/field_normals.hpp"
 #include "pcp/mesh/fine_repair.hpp"
+#include "pcp/mesh/shell_centre.hpp"
 #include "pcp/mesh/tunnel_fill.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 #include "pcp/mesh/sign_repair.hpp"
@@ -75,6 +76,7 @@ struct ReconstructOptions {
     CavityFillOptions cavity_fill;   ///< fill enclosed positive pockets (hollow shells of noisy scans) on a dense grid (not in the paper)
     FineRepairOptions fine_repair;   ///< the sign repair's rule on the fine grid, for thin membranes (not in the paper)
     TunnelFillOptions tunnel_fill;   ///< plug passages through the solid two cells across or less, on a dense grid (not in the paper)
+    ShellCentreOptions shell_centre; ///< noisy clouds: the surface in the middle of the noise band's shell, not on its outer wall (not in the paper)
     SurfaceFitOptions surface_fit;   ///< support filter and fit of the mesh onto the data (not in the paper)
     SmoothOptions smoothing;         ///< bilateral smoothing of the final mesh, of noisy clouds by default (not in the paper)
     SceneOptions scene;              ///< open surfaces where the data ends (rooms); off except in the "scene" preset
@@ -110,6 +112,7 @@ struct ReconstructReport {
     FineRepairStats fine_repair;     ///< what the fine sign repair flipped
     CavityFillStats cavity_fill;     ///< what the cavity fill negated
     TunnelFillStats tunnel_fill;     ///< what the tunnel fill plugged
+    ShellCentreStats shell_centre;   ///< the vertices moved to the middle of their shell
     WindingSignStats winding_sign;   ///< the oriented normals and the winding-number tree
     FieldNormalsStats normals;       ///< the oriented normals of the input points (all 0: not asked for)
     std::int64_t winding_corrected = 0;  ///< field values whose sign the winding number changed

@@ -1,5 +1,5 @@
 // Private helper of the mesh stages that work on the fine grid's stored samples (fine_repair.cpp,
-// cavity_fill.cpp): a loop over every stored sample with its lattice index.
+// cavity_fill.cpp, shell_centre.cpp): a loop over every stored sample with its lattice index.
 #pragma once
 
 #include "pcp/mesh/sdf_grid.hpp"
@@ -12,8 +12,8 @@ namespace pcp::detail {
 /// Calls fn(value, lattice index) for every stored, non-NaN sample of every block of `grid` (a
 /// sample shared by several blocks once per block that stores it); lattice index (k * n1 + j) * n1
 /// + i with n1 = resolution + 1.
-template <class Fn>
-void for_each_stored_sample(SdfGrid& grid, Fn&& fn) {
+template <class Grid, class Fn>  // Grid: SdfGrid or const SdfGrid
+void for_each_stored_sample(Grid& grid, Fn&& fn) {
     const int R = grid.spec.resolution, n1 = R + 1, B = grid.block_cells, S = B + 1, nb = grid.blocks_per_axis;
     const std::int64_t per_block = std::int64_t(S) * S * S;
     for (int b = 0; b < grid.num_blocks(); ++b) {
@@ -24,7 +24,7 @@ void for_each_stored_sample(SdfGrid& grid, Fn&& fn) {
                 for (int x = 0; x < S; ++x) {
                     const std::int64_t i = std::int64_t(bx) * B + x, j = std::int64_t(by) * B + y, k = std::int64_t(bz) * B + z;
                     if (i > R || j > R || k > R) continue;
-                    float& v = grid.values[static_cast<std::size_t>(b * per_block + (std::int64_t(z) * S + y) * S + x)];
+                    auto& v = grid.values[static_cast<std::size_t>(b * per_block + (std::int64_t(z) * S + y) * S + x)];
                     if (std::isnan(v)) continue;
                     fn(v, (k * n1 + j) * n1 + i);
                 }

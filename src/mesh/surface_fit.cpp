@@ -237,6 +237,8 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
     return mesh;
 }
 
+Points mesh_vertex_normals(const Mesh& mesh) { return vertex_normals(mesh, OneRing(mesh)); }
+
 Mesh trim_unsupported_faces(const Mesh& unit_mesh, const KdTree& cloud, double radius, std::int64_t* removed) {
     PCP_CHECK(radius > 0 && std::isfinite(radius), "trim_unsupported_faces: radius must be > 0, got " << radius);
     const Eigen::Index F = unit_mesh.faces.rows(), V = unit_mesh.vertices.rows();

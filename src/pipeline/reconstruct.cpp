@@ -22,6 +22,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <vector>
 
 namespace pcp {
@@ -317,6 +318,10 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // Enclosed pockets of "outside": the hollow shells of noisy scans (include/pcp/mesh/cavity_fill.hpp).
     CavityFillOptions fill = options.cavity_fill;
     if (r.denoise_passes > 0) fill.max_open = fill.noisy_max_open;  // a noisy cloud: only the closed pockets
+    // A noisy cloud's shell: its inner wall, which the fill removes, puts the surface in the middle
+    // of the noise band later (include/pcp/mesh/shell_centre.hpp).
+    std::optional<SdfGrid> before_fill;
+    if (r.denoise_passes > 0 && options.shell_centre.enabled && fill.enabled && go.band == NarrowBand::Dense) before_fill = grid;
     r.cavity_fill = fill_cavities(grid, fill);
     // Membranes and bubbles too thin for the coarse grid (include/pcp/mesh/fine_repair.hpp).
     r.fine_repair = repair_fine_grid(grid, cloud.tree(), options.fine_repair);
@@ -343,6 +348,9 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     }
     PCP_CHECK(mc_mesh.faces.rows() > 0, "reconstruction produced an empty mesh: the fitted SDF has no zero crossing "
                                         "in the grid (train longer, or check the input)");
+    if (before_fill && r.cavity_fill.cavity_samples > 0)
+        mc_mesh = centre_in_shells(mc_mesh, *before_fill, grid, cloud.tree(), options.shell_centre.max_thickness_k * sampling_scale(cloud.tree()),
+                                   &r.shell_centre);
     SurfaceFitOptions fit_options = options.surface_fit;
     if (r.denoise_passes > 0) fit_options.neighbors = fit_options.noisy_neighbors;  // a noisy cloud: average more points
     const Mesh fitted_mesh = fit_surface_to_points(mc_mesh, cloud.tree(), fit_options, &r.surface_fit);

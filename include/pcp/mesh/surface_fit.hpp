@@ -71,6 +71,10 @@ Mesh offset_along_normals(const Mesh& mesh, double distance);
 /// The same with a distance per vertex (`distances`: one per vertex, finite).
 Mesh offset_along_normals(const Mesh& mesh, const Eigen::VectorXd& distances);
 
+/// The unit vertex normals those moves use (area weighted, averaged over the one-ring; zero where
+/// undefined), V x 3.
+Points mesh_vertex_normals(const Mesh& mesh);
+
 /// Open boundaries where the data ends (the scene mode, ReconstructOptions::scene): keeps the faces
 /// whose centroid has an input point within `radius` (unit-box units, like `unit_mesh` and
 /// `cloud`), drops the others and the vertices no kept face uses. A signed field closes every
