@@ -8,6 +8,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <filesystem>
 
 namespace fs = std::filesystem;
@@ -34,12 +35,27 @@ TEST_CASE("demo2d: a query network trained for the square on the circle's prior 
     // The square's points are moved onto the circle (the prior's zero set).
     CHECK(r.predicted_radius_median < 0.005);
     CHECK(r.predicted_radius_p90 < 0.02);
-    // Corners move along their diagonal: the figure's 45-degree correspondence.
-    const Eigen::Vector2d corner(o.square_half_side, o.square_half_side);
-    Eigen::Index nearest_sample = 0;
-    (r.square.colwise() - corner).colwise().squaredNorm().minCoeff(&nearest_sample);
-    const Eigen::Vector2d moved = r.square_predicted.col(nearest_sample);
-    CHECK(std::abs(std::atan2(moved.y(), moved.x()) - std::atan2(1.0, 1.0)) < 0.15);
+    // Corners move along their diagonals: the figure's 45-degree correspondence. For each of the
+    // four corners, the mean direction of the predicted points of the square's samples within
+    // 0.05 of it; the angle to the diagonal, averaged over the corners (a single sample's prediction
+    // varies by several degrees between machines' rounding).
+    double angle_error = 0;
+    for (int c = 0; c < 4; ++c) {
+        const Eigen::Vector2d corner((c & 1) ? -o.square_half_side : o.square_half_side,
+                                     (c & 2) ? -o.square_half_side : o.square_half_side);
+        Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+        int count = 0;
+        for (Eigen::Index i = 0; i < r.square.cols(); ++i)
+            if ((r.square.col(i) - corner).norm() <= 0.05) {
+                sum += r.square_predicted.col(i).normalized();
+                ++count;
+            }
+        REQUIRE(count > 0);
+        const double a = std::atan2(sum.y(), sum.x()), d = std::atan2(corner.y(), corner.x());
+        angle_error += std::abs(std::remainder(a - d, 2 * 3.14159265358979323846)) / 4;
+        UNSCOPED_INFO("corner " << c << ": " << count << " samples, angle to the diagonal " << std::remainder(a - d, 2 * 3.14159265358979323846));
+    }
+    CHECK(angle_error < 0.15);
     // The prior itself is the circle's SDF near the circle.
     CHECK(r.prior_loss < 0.01);
 
