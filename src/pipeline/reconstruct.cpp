@@ -353,7 +353,10 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
                                    &r.shell_centre);
     SurfaceFitOptions fit_options = options.surface_fit;
     if (r.denoise_passes > 0) fit_options.neighbors = fit_options.noisy_neighbors;  // a noisy cloud: average more points
-    const Mesh fitted_mesh = fit_surface_to_points(mc_mesh, cloud.tree(), fit_options, &r.surface_fit);
+    // A denoised cloud's mesh is fitted to the input points as given (SurfaceFitOptions::noisy_raw_points).
+    std::unique_ptr<KdTree> raw_tree;
+    if (r.denoise_passes > 0 && fit_options.noisy_raw_points) raw_tree = std::make_unique<KdTree>(cloud.normalization().to_unit(all_points));
+    const Mesh fitted_mesh = fit_surface_to_points(mc_mesh, raw_tree ? *raw_tree : cloud.tree(), fit_options, &r.surface_fit);
     PCP_CHECK(fitted_mesh.faces.rows() > 0, "reconstruction produced no surface near the input points (every piece of "
                                             "the fitted SDF's zero set lies away from the data)");
     // The noise's bumps that the fit onto noisy data keeps (include/pcp/mesh/smooth.hpp).

@@ -44,6 +44,12 @@ struct SurfaceFitOptions {
     /// clean clouds, 32 on noisy ones (the pipeline uses noisy_neighbors when it denoised the cloud).
     int neighbors = 16;
     int noisy_neighbors = 32;     ///< what pcp::reconstruct uses instead of `neighbors` for a denoised cloud
+    /// pcp::reconstruct fits the mesh of a denoised cloud to the input points as given, not to the
+    /// denoised ones: the denoiser's plane projection pulls points inward on curved parts (noisy
+    /// bunny: 0.00026 inside the GT against +0.00009 for the input, file units), and the fit's
+    /// averaging over noisy_neighbors does the denoising. Measured on every noisy shared case
+    /// (docs/BENCHMARKS.md, "Shell centring"): L2-CD and NC better on all eleven.
+    bool noisy_raw_points = true;
     double bandwidth = 1.0;       ///< the offset kernel's width, in units of the vertex's distance to its 10th nearest point
     double relax = 0.5;           ///< tangential relaxation per round, in [0, 1]
     bool shrink = true;           ///< scale each move m by max(0, 1 - se^2 / m^2), se the standard error of the mean offset
