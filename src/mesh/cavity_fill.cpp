@@ -30,8 +30,7 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options) {
     }
     st.delta = options.core_cells * grid.spec.spacing().maxCoeff();
     const float delta = static_cast<float>(st.delta);
-    std::vector<float> value(static_cast<std::size_t>(total), std::numeric_limits<float>::quiet_NaN());
-    detail::for_each_stored_sample(grid, [&](const float& v, std::int64_t g) { value[static_cast<std::size_t>(g)] = v; });
+    const std::vector<float> value = detail::lattice_values(grid);
     for (float v : value) PCP_CHECK(!std::isnan(v), "cavity fill: the dense grid misses a sample");
 
     std::vector<std::uint8_t> label(static_cast<std::size_t>(total), kNone);

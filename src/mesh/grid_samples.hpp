@@ -1,11 +1,14 @@
 // Private helper of the mesh stages that work on the fine grid's stored samples (fine_repair.cpp,
-// cavity_fill.cpp, shell_centre.cpp): a loop over every stored sample with its lattice index.
+// cavity_fill.cpp, tunnel_fill.cpp, shell_centre.cpp): a loop over every stored sample with its
+// lattice index, and the dense lattice of a grid's values.
 #pragma once
 
 #include "pcp/mesh/sdf_grid.hpp"
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <vector>
 
 namespace pcp::detail {
 
@@ -29,6 +32,14 @@ void for_each_stored_sample(Grid& grid, Fn&& fn) {
                     fn(v, (k * n1 + j) * n1 + i);
                 }
     }
+}
+
+/// Every lattice sample of `grid` (NaN where no block stores it), index (k * n1 + j) * n1 + i.
+inline std::vector<float> lattice_values(const SdfGrid& grid) {
+    const std::int64_t n1 = grid.spec.resolution + 1;
+    std::vector<float> out(static_cast<std::size_t>(n1 * n1 * n1), std::numeric_limits<float>::quiet_NaN());
+    for_each_stored_sample(grid, [&](const float& v, std::int64_t g) { out[static_cast<std::size_t>(g)] = v; });
+    return out;
 }
 
 }  // namespace pcp::detail

@@ -14,14 +14,6 @@
 namespace pcp {
 namespace {
 
-/// Every lattice sample of `grid` (NaN where no block stores it), index (k * n1 + j) * n1 + i.
-std::vector<float> lattice_values(const SdfGrid& grid) {
-    const std::int64_t n1 = grid.spec.resolution + 1;
-    std::vector<float> out(static_cast<std::size_t>(n1 * n1 * n1), std::numeric_limits<float>::quiet_NaN());
-    detail::for_each_stored_sample(grid, [&](const float& v, std::int64_t g) { out[static_cast<std::size_t>(g)] = v; });
-    return out;
-}
-
 /// Trilinear interpolation of the lattice at `p` (unit box); NaN outside the grid box or where a
 /// corner sample is missing.
 struct Lattice {
@@ -59,7 +51,7 @@ Mesh centre_in_shells(const Mesh& mesh, const SdfGrid& before, const SdfGrid& af
               "shell centring: the grids before and after the fills differ");
     ShellCentreStats st;
     st.applied = true;
-    const std::vector<float> pre = lattice_values(before), post = lattice_values(after);
+    const std::vector<float> pre = detail::lattice_values(before), post = detail::lattice_values(after);
     const Lattice field_before{before.spec, pre}, field_after{after.spec, post};
     const Points normals = mesh_vertex_normals(mesh);
     const double step = 0.25 * before.spec.spacing().minCoeff();

@@ -22,8 +22,7 @@ TunnelFillStats fill_tunnels(SdfGrid& grid, const TunnelFillOptions& options) {
         st.skipped = true;
         return st;
     }
-    std::vector<float> value(static_cast<std::size_t>(total), std::numeric_limits<float>::quiet_NaN());
-    detail::for_each_stored_sample(grid, [&](const float& v, std::int64_t g) { value[static_cast<std::size_t>(g)] = v; });
+    const std::vector<float> value = detail::lattice_values(grid);
     std::vector<std::uint8_t> inside(static_cast<std::size_t>(total), 0);
     for (std::int64_t g = 0; g < total; ++g) {
         const float v = value[static_cast<std::size_t>(g)];
