@@ -226,6 +226,7 @@ void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, st
     const std::int64_t chunk = 16 * std::max(1, omp_get_max_threads());
 
     std::int64_t done = 0;
+    if (first == 0) report(options, 0, total, start);  // the stage's first line, before any work
     for (std::int64_t c0 = 0; c0 < groups; c0 += chunk) {
         const std::int64_t c1 = std::min(groups, c0 + chunk);
         FirstError errors;

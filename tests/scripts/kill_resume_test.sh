@@ -21,9 +21,10 @@ rm -rf "$work"
 mkdir -p "$work"
 cd "$work" || exit 1
 
-# Small but real runs: a self-prior of 270 steps, a query fit of 300 steps, checkpoints every 25.
+# Small but real runs: a self-prior of 270 steps, a query fit of 300 steps, checkpoints every 25;
+# resolution 64 so that the grid stage (its first line comes before any work) outlasts the kill delay.
 recon=("$bin/pcp_reconstruct" --preset fast --builtin-points 5000 --threads 1 --precision fp32 --steps 300
-       --prior-epochs 10 --width 32 --resolution 40 --checkpoint-every 25 --progress-every 5)
+       --prior-epochs 10 --width 32 --resolution 64 --checkpoint-every 25 --progress-every 5)
 train=("$bin/pcp_train" --preset fast --threads 1 --precision fp32 --width 32 --depth 2 --condition 32
        --grid 2 --steps 400 --checkpoint-every 20 --progress-every 5)
 
