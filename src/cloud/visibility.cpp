@@ -152,6 +152,8 @@ VisibilityLabels label_by_visibility(const KdTree& tree, const Aabb& box, const 
     PCP_CHECK(o.occupancy_resolution >= 8 && o.occupancy_resolution <= 1024,
               "visibility: occupancy_resolution must be in 8..1024, got " << o.occupancy_resolution);
     PCP_CHECK(o.rays >= 8 && o.rays <= 1024, "visibility: rays must be in 8..1024, got " << o.rays);
+    PCP_CHECK(o.min_through_lines >= 0 && o.min_through_lines <= o.rays,
+              "visibility: min_through_lines must be in 0..rays, got " << o.min_through_lines);
     PCP_CHECK(std::isfinite(o.dilation) && o.dilation > 0.0, "visibility: dilation must be > 0");
     PCP_CHECK(std::isfinite(o.min_distance) && o.min_distance >= 0.0, "visibility: min_distance must be >= 0");
     PCP_CHECK(o.outside_fraction > 0.0 && o.outside_fraction <= 1.0, "visibility: outside_fraction must be in (0, 1]");
@@ -191,15 +193,23 @@ VisibilityLabels label_by_visibility(const KdTree& tree, const Aabb& box, const 
         Rng rng(o.seed, 0x7151B1E0000000ull + static_cast<std::uint64_t>(c));
         const Eigen::Matrix3d R = random_rotation(rng);
         const Eigen::Vector3d from = centers.row(c).transpose().cast<double>();
-        int escaped = 0;
+        int escaped = 0, through = 0;
         std::int8_t label = 0;
         for (int r = 0; r < o.rays; ++r) {
-            if (occ.escapes(from, R * dirs[static_cast<std::size_t>(r)])) ++escaped;
-            if (escaped >= needed) {
+            const Eigen::Vector3d d = R * dirs[static_cast<std::size_t>(r)];
+            if (occ.escapes(from, d)) {
+                ++escaped;
+                // A line through the cell that escapes at both ends crosses no wall: no closed
+                // surface of the data can hold the cell (the middle of a through-hole).
+                if (o.min_through_lines > 0 && occ.escapes(from, -d)) ++through;
+            }
+            if (escaped >= needed || (o.min_through_lines > 0 && through >= o.min_through_lines)) {
                 label = 1;
                 break;
             }
-            if (escaped > 0 && escaped + (o.rays - r - 1) < needed) break;  // neither inside nor outside
+            const int left = o.rays - r - 1;
+            if (escaped > 0 && escaped + left < needed && (o.min_through_lines == 0 || through + left < o.min_through_lines))
+                break;  // neither inside nor outside
         }
         if (label == 0 && escaped == 0) label = -1;
         out.label[static_cast<std::size_t>(c)] = label;

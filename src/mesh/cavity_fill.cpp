@@ -15,12 +15,14 @@ enum Label : std::uint8_t { kNone = 0, kOutside = 1, kCavity = 2 };
 
 }  // namespace
 
-CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options) {
+CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, const VisibilityLabels* labels) {
     PCP_CHECK(options.core_cells > 0 && std::isfinite(options.core_cells), "cavity fill: core_cells must be > 0");
     PCP_CHECK(options.max_open >= 0 && options.max_open <= 1 && options.noisy_max_open >= 0 && options.noisy_max_open <= 1,
               "cavity fill: max_open and noisy_max_open must be in [0, 1]");
+    PCP_CHECK(options.min_label_votes >= 0, "cavity fill: min_label_votes must be >= 0");
     CavityFillStats st;
     if (!options.enabled) return st;
+    const bool vote = labels && options.min_label_votes > 0 && !labels->label.empty();
     const int R = grid.spec.resolution, n1 = R + 1;
     const std::int64_t total = std::int64_t(n1) * n1 * n1;
     const std::int64_t dense_blocks = std::int64_t(grid.blocks_per_axis) * grid.blocks_per_axis * grid.blocks_per_axis;
@@ -97,11 +99,17 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options) {
             members.clear();
             stack.assign(1, g);
             seen[s0] = 1;
-            std::int64_t open = 0, closed = 0;
+            std::int64_t open = 0, closed = 0, seen_outside = 0, seen_inside = 0;
             while (!stack.empty()) {
                 const std::int64_t c = stack.back();
                 stack.pop_back();
                 members.push_back(c);
+                if (vote) {
+                    const int l = labels->label_at(grid.spec.sample_position(int(c % n1), int((c / n1) % n1),
+                                                                             int(c / (std::int64_t(n1) * n1))));
+                    seen_outside += l > 0;
+                    seen_inside += l < 0;
+                }
                 const int n = neighbours(c, nb);
                 for (int a = 0; a < n; ++a) {
                     const auto h = static_cast<std::size_t>(nb[a]);
@@ -117,6 +125,10 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options) {
             }
             ++st.pockets;
             if (double(open) > options.max_open * double(open + closed)) continue;
+            if (vote && seen_outside >= options.min_label_votes && seen_outside > seen_inside) {
+                ++st.seen_from_outside;  // the rays see out from it: not a cavity
+                continue;
+            }
             ++st.cavities;
             st.cavity_samples += static_cast<std::int64_t>(members.size());
             for (std::int64_t c : members) flip[static_cast<std::size_t>(c)] = 1;

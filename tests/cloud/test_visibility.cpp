@@ -66,14 +66,18 @@ TEST_CASE("visibility: the default shape's through-hole is outside, its block in
     const pcp::PointCloud s = pcp::sample_default_shape(20000, 0.0, 5);
     const pcp::PreparedCloud cloud(s.points, "default shape", 2);
     // The middle of the hole sees out through its two ends (about 16 % of the directions): outside
-    // at an outside_fraction of 0.1, unknown at the default 0.5; never inside.
+    // at an outside_fraction of 0.1 (without the through-lines of the next test, unknown at the
+    // default 0.5); never inside.
     pcp::VisibilityOptions o;
     o.outside_fraction = 0.1;
+    o.min_through_lines = 0;
     const pcp::VisibilityLabels l = pcp::label_by_visibility(cloud.tree(), grown_box(cloud.unit(), 0.05), o);
     const Agreement a = check_labels(l, cloud, [](const Eigen::Vector3d& p) { return pcp::default_shape_sdf(p); });
     CHECK(a.wrong == 0);
     CHECK(a.inside > 50);
-    const pcp::VisibilityLabels d = pcp::label_by_visibility(cloud.tree(), grown_box(cloud.unit(), 0.05));
+    pcp::VisibilityOptions half;
+    half.min_through_lines = 0;
+    const pcp::VisibilityLabels d = pcp::label_by_visibility(cloud.tree(), grown_box(cloud.unit(), 0.05), half);
     CHECK(check_labels(d, cloud, [](const Eigen::Vector3d& p) { return pcp::default_shape_sdf(p); }).wrong == 0);
     CHECK(d.stats.outside < l.stats.outside);
     // Cells on the hole's axis (x = -0.2, y = 0, inside the block's z range) are outside.
@@ -81,6 +85,26 @@ TEST_CASE("visibility: the default shape's through-hole is outside, its block in
         return std::hypot(p.x() + 0.2, p.y()) < 0.06 && std::abs(p.z()) < 0.15 && label > 0;
     });
     CHECK(hole_outside >= 3);
+}
+
+TEST_CASE("visibility: the middle of a through-hole is outside by its lines that cross no wall", "[visibility][heavy]") {
+    // At the default outside_fraction the hole's middle sees out along too few directions; every one
+    // of them escapes at both ends, which min_through_lines counts. No cell is labelled wrongly.
+    const pcp::PointCloud s = pcp::sample_default_shape(20000, 0.0, 5);
+    const pcp::PreparedCloud cloud(s.points, "default shape", 2);
+    const auto sdf = [](const Eigen::Vector3d& p) { return pcp::default_shape_sdf(p); };
+    const auto on_axis = [](const Eigen::Vector3d& p, int label) {
+        return std::hypot(p.x() + 0.2, p.y()) < 0.06 && std::abs(p.z()) < 0.15 && label > 0;
+    };
+    const pcp::VisibilityLabels with = pcp::label_by_visibility(cloud.tree(), grown_box(cloud.unit(), 0.05));
+    CHECK(check_labels(with, cloud, sdf).wrong == 0);
+    CHECK(count_cells(with, cloud, on_axis) >= 3);
+    pcp::VisibilityOptions off;
+    off.min_through_lines = 0;
+    const pcp::VisibilityLabels without = pcp::label_by_visibility(cloud.tree(), grown_box(cloud.unit(), 0.05), off);
+    CHECK(count_cells(without, cloud, on_axis) == 0);
+    CHECK(without.stats.outside < with.stats.outside);
+    CHECK(without.stats.inside == with.stats.inside);  // a cell no ray leaves has no line either
 }
 
 TEST_CASE("visibility: from inside an open shell the opening is seen, so nothing there is inside", "[visibility][heavy]") {
@@ -135,6 +159,11 @@ TEST_CASE("visibility: bad options and degenerate input are refused", "[visibili
     CHECK_THROWS_AS(pcp::label_by_visibility(cloud.tree(), box, o), pcp::Error);
     o = {};
     o.outside_fraction = 1.5;
+    CHECK_THROWS_AS(pcp::label_by_visibility(cloud.tree(), box, o), pcp::Error);
+    o = {};
+    o.min_through_lines = -1;
+    CHECK_THROWS_AS(pcp::label_by_visibility(cloud.tree(), box, o), pcp::Error);
+    o.min_through_lines = o.rays + 1;
     CHECK_THROWS_AS(pcp::label_by_visibility(cloud.tree(), box, o), pcp::Error);
     pcp::Aabb flat = box;
     flat.max.z() = flat.min.z();

@@ -1,7 +1,8 @@
 // Tests for pcp/mesh/cavity_fill.hpp: a hollow sphere (a shell of "inside" around a positive core)
 // is filled, leaving one sphere; a torus's hole and an open cup stay outside; a pinhole through the
-// shell does not let the outside in; a sparse grid is skipped; bad options throw.
+// shell does not let the outside in; a pocket the visibility labels see from outside stays; a sparse grid is skipped; bad options throw.
 #include "mc_test_util.hpp"
+#include "pcp/cloud/visibility.hpp"
 #include "pcp/core/error.hpp"
 #include "pcp/mesh/cavity_fill.hpp"
 #include "pcp/mesh/marching_cubes.hpp"
@@ -77,6 +78,54 @@ TEST_CASE("cavity fill: a torus's hole and an open cup stay outside", "[cavity_f
     CHECK(pcp::fill_cavities(cup_grid).cavity_samples == 0);
 }
 
+TEST_CASE("cavity fill: a through-hole's pocket that the visibility labels see from outside stays open", "[cavity_fill]") {
+    // A slab with a through-hole along z (radius 0.15) whose field in the hole has a band of small
+    // positive values (as where the sign repair flipped a plug the fit put there): the outside front
+    // stops at the band, the middle of the hole is a pocket walled on most of its boundary.
+    const ScalarSdf slab = box_sdf(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.4, 0.4, 0.3));
+    const ScalarSdf holed = [=](const Eigen::Vector3d& p) {
+        const double r = std::hypot(p.x(), p.y());
+        const double f = std::max(slab(p), 0.15 - r);
+        const double z = std::abs(p.z());
+        return (f > 0 && r < 0.15 && z > 0.12 && z < 0.18) ? std::min(f, 0.004) : f;
+    };
+    const pcp::SdfGrid original = dense_grid(holed, 64);
+    REQUIRE(topology(pcp::marching_cubes(original)).euler() == 0);
+    // Without labels the pocket is a cavity: filled, the hole closed.
+    pcp::SdfGrid closed = original;
+    const pcp::CavityFillStats filled = pcp::fill_cavities(closed);
+    CHECK(filled.cavities == 1);
+    CHECK(topology(pcp::marching_cubes(closed)).euler() == 2);
+    // Labels: outside in the middle of the hole, inside in the slab away from the hole.
+    pcp::VisibilityLabels labels;
+    labels.origin = Eigen::Vector3d::Constant(-0.6);
+    labels.cell = 0.05;
+    labels.dims = Eigen::Vector3i::Constant(24);
+    labels.label.assign(24 * 24 * 24, 0);
+    for (int k = 0; k < 24; ++k)
+        for (int j = 0; j < 24; ++j)
+            for (int i = 0; i < 24; ++i) {
+                const Eigen::Vector3d c = labels.center(i, j, k);
+                const double r = std::hypot(c.x(), c.y());
+                if (r < 0.1 && std::abs(c.z()) < 0.25) labels.label[labels.index(i, j, k)] = 1;
+                if (r > 0.2 && holed(c) < -0.05) labels.label[labels.index(i, j, k)] = -1;
+            }
+    pcp::SdfGrid open = original;
+    const pcp::CavityFillStats kept = pcp::fill_cavities(open, {}, &labels);
+    CHECK(kept.cavities == 0);
+    CHECK(kept.seen_from_outside == 1);
+    CHECK(open.values == original.values);
+    CHECK(topology(pcp::marching_cubes(open)).euler() == 0);
+    // min_label_votes = 0 ignores the labels; a pocket labelled inside is still a cavity.
+    pcp::SdfGrid ignored = original;
+    pcp::CavityFillOptions no_votes;
+    no_votes.min_label_votes = 0;
+    CHECK(pcp::fill_cavities(ignored, no_votes, &labels).cavities == 1);
+    for (auto& l : labels.label) l = static_cast<std::int8_t>(-std::abs(l));
+    pcp::SdfGrid inside = original;
+    CHECK(pcp::fill_cavities(inside, {}, &labels).cavities == 1);
+}
+
 TEST_CASE("cavity fill: sparse grids are skipped, disabled is the identity, bad options throw", "[cavity_fill]") {
     pcp::SdfGrid sparse = pcp::evaluate_sdf_grid(batch(hollow_sphere(0.4, 0.06)), cube_grid(64));  // narrow band
     const std::vector<float> before = sparse.values;
@@ -97,5 +146,8 @@ TEST_CASE("cavity fill: sparse grids are skipped, disabled is the identity, bad 
     CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
     bad = {};
     bad.noisy_max_open = -0.1;
+    CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
+    bad = {};
+    bad.min_label_votes = -1;
     CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
 }

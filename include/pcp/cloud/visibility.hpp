@@ -18,8 +18,9 @@
 //     min_distance x sampling_scale plus half a cell diagonal from every input point, so that the
 //     whole cell is away from the data. From each, `rays` directions (a Fibonacci sphere turned by
 //     a random rotation per cell, seeded) are marched through the occupancy grid to the box's faces.
-//  3. No ray escapes: inside (-1). At least outside_fraction of them escape: outside (+1).
-//     Otherwise (a view out through a hole in the scan, the bottom of a deep slot): unknown (0),
+//  3. No ray escapes: inside (-1). At least outside_fraction of them escape, or at least
+//     min_through_lines of them escape at both ends (the cell lies on lines that cross no wall: a
+//     through-hole): outside (+1). Otherwise (a view out through a hole in the scan, the bottom of a deep slot): unknown (0),
 //     and the guide says nothing there.
 //
 // Wrong labels are possible where no ray can see a true outside (an enclosed cavity, which no
@@ -47,6 +48,12 @@ struct VisibilityOptions {
     /// Escaping fraction that makes a cell outside (0, 1]. 0.5, not less: the inside of a scan seen
     /// through a hole in it (the bunny's open base) is otherwise labelled outside.
     double outside_fraction = 0.5;
+    /// A cell is outside too when this many of its ray directions escape at both ends (d and -d):
+    /// a line through the cell that crosses no wall, which no closed surface of the data allows.
+    /// The middle of a through-hole sees out along about a sixth of the directions only (unknown by
+    /// outside_fraction), but every one of them is such a line; the inside of a scan seen through
+    /// one opening (the bunny's base) has none. 0 = off.
+    int min_through_lines = 3;
     std::uint64_t seed = 1;           ///< the per-cell rotations of the ray directions
     double margin = 0.05;             ///< the labelled box: the cloud's box grown by this on every side (>= 0)
 };

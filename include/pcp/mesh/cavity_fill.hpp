@@ -23,10 +23,16 @@
 //     filling it would put a sheet where the two fronts met, away from the data, so it stays.
 //
 // A region of the outside joined to the rest only through a passage narrower than about 2 delta (a
-// bottle's inside behind a thin neck) is filled too. Needs every sample of the lattice (a dense
+// bottle's inside behind a thin neck) is filled too.
+//
+// With visibility labels (pcp/cloud/visibility.hpp), a pocket whose labelled samples mostly say
+// outside is seen from outside, so it is not a cavity and stays: a through-hole whose plug the sign
+// repair flipped keeps the plug's small |F| there, below delta, so the outside front cannot enter
+// it, and its walls make most of its boundary (the built-in shape's hole, closed by the fill before). Needs every sample of the lattice (a dense
 // grid); otherwise, and above max_samples, nothing is done (stats.skipped).
 #pragma once
 
+#include "pcp/cloud/visibility.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 
 #include <cstdint>
@@ -43,6 +49,9 @@ struct CavityFillOptions {
     double max_open = 0.5;
     double noisy_max_open = 0.15;  ///< what pcp::reconstruct uses instead of max_open for a denoised cloud
     std::int64_t max_samples = std::int64_t(1) << 24;  ///< (R + 1)^3 above this: skipped (R = 128: 2.1e6)
+    /// With labels: a pocket with at least this many samples in outside cells, and more than in
+    /// inside cells, is left alone. 0 = the labels are ignored.
+    int min_label_votes = 4;
 };
 
 struct CavityFillStats {
@@ -50,11 +59,13 @@ struct CavityFillStats {
     std::int64_t cavity_samples = 0;   ///< lattice samples negated (cavities and bubbles)
     int pockets = 0;                   ///< connected positive regions the outside did not reach
     int cavities = 0;                  ///< of which filled (closed enough)
+    int seen_from_outside = 0;         ///< pockets closed enough but left alone by the labels
     double delta = 0;                  ///< the core threshold used (unit-box units)
 };
 
 /// Negates the values of the enclosed positive regions of `grid` described above, in place (every
-/// stored copy of a sample). Throws pcp::Error for bad options.
-CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options = {});
+/// stored copy of a sample). `labels`: visibility labels in the grid's frame, or null. Throws
+/// pcp::Error for bad options.
+CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options = {}, const VisibilityLabels* labels = nullptr);
 
 }  // namespace pcp
