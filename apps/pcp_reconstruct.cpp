@@ -614,7 +614,10 @@ int main(int argc, char** argv) {
                                                    : std::string())
           << (o.sign_repair.parity_votes > 0 ? " and " + std::to_string(report.sign_repair.parity_flipped) + " coarse samples by parity" : std::string())
           << ", cavity fill " << (report.cavity_fill.skipped ? std::string("skipped (grid too large)")
-                                   : "filled " + std::to_string(report.cavity_fill.cavities) + " pockets")
+                                   : "filled " + std::to_string(report.cavity_fill.cavities) + " pockets" +
+                                         (report.cavity_fill.seen_from_outside > 0
+                                              ? " (kept " + std::to_string(report.cavity_fill.seen_from_outside) + " the visibility labels see from outside)"
+                                              : std::string()))
           << ", fine repair flipped " << report.fine_repair.flipped_components << " of " << report.fine_repair.components
           << " thin regions" << (report.fine_repair.skipped ? " (skipped: grid too large)" : "")
           << ", tunnel fill " << (report.tunnel_fill.skipped ? std::string("skipped (grid too large)")
