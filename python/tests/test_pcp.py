@@ -70,10 +70,13 @@ def test_progress_sees_every_stage(sphere_result):
         assert stage in stages
 
 
-def test_float32_input_gives_the_same_kind_of_result(sphere_result, sphere_prior):
+def test_float32_input_gives_the_same_kind_of_result(sphere_result):
+    # The float64 fixture's schedule (self-prior): with sphere_prior and 100-300 query steps the
+    # field is still bumpy on some machines (Zen 4: 12-85 vertices 2-5 units off the sphere).
     points = sphere_result[0].astype(np.float32)
-    vertices, faces = pcp.reconstruct(points, prior=sphere_prior, preset="fast", steps=100, resolution=40)
+    vertices, faces = pcp.reconstruct(points, **QUICK)
     assert np.abs(np.linalg.norm(vertices - CENTRE, axis=1) - RADIUS).max() < 0.02 * RADIUS
+    assert len(vertices) == pytest.approx(len(sphere_result[1]), rel=0.05)
 
 
 @pytest.mark.parametrize(
