@@ -99,17 +99,11 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
             members.clear();
             stack.assign(1, g);
             seen[s0] = 1;
-            std::int64_t open = 0, closed = 0, seen_outside = 0, seen_inside = 0;
+            std::int64_t open = 0, closed = 0;
             while (!stack.empty()) {
                 const std::int64_t c = stack.back();
                 stack.pop_back();
                 members.push_back(c);
-                if (vote) {
-                    const int l = labels->label_at(grid.spec.sample_position(int(c % n1), int((c / n1) % n1),
-                                                                             int(c / (std::int64_t(n1) * n1))));
-                    seen_outside += l > 0;
-                    seen_inside += l < 0;
-                }
                 const int n = neighbours(c, nb);
                 for (int a = 0; a < n; ++a) {
                     const auto h = static_cast<std::size_t>(nb[a]);
@@ -125,9 +119,17 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
             }
             ++st.pockets;
             if (double(open) > options.max_open * double(open + closed)) continue;
-            if (vote && seen_outside >= options.min_label_votes && seen_outside > seen_inside) {
-                ++st.seen_from_outside;  // the rays see out from it: not a cavity
-                continue;
+            if (vote) {  // a closed-enough pocket the rays see out from is not a cavity
+                std::int64_t seen_outside = 0, seen_inside = 0;
+                for (std::int64_t c : members) {
+                    const int l = labels->label_at(grid.spec.sample_position(c % n1, (c / n1) % n1, c / (std::int64_t(n1) * n1)));
+                    seen_outside += l > 0;
+                    seen_inside += l < 0;
+                }
+                if (seen_outside >= options.min_label_votes && seen_outside > seen_inside) {
+                    ++st.seen_from_outside;
+                    continue;
+                }
             }
             ++st.cavities;
             st.cavity_samples += static_cast<std::int64_t>(members.size());

@@ -20,8 +20,8 @@
 //     a random rotation per cell, seeded) are marched through the occupancy grid to the box's faces.
 //  3. No ray escapes: inside (-1). At least outside_fraction of them escape, or at least
 //     min_through_lines of them escape at both ends (the cell lies on lines that cross no wall: a
-//     through-hole): outside (+1). Otherwise (a view out through a hole in the scan, the bottom of a deep slot): unknown (0),
-//     and the guide says nothing there.
+//     through-hole): outside (+1). Otherwise (a view out through a hole in the scan, the bottom
+//     of a deep slot): unknown (0), and the guide says nothing there.
 //
 // Wrong labels are possible where no ray can see a true outside (an enclosed cavity, which no
 // scanner sees either; thin walls closing small pockets: abc_00010098) and where the data has a

@@ -28,8 +28,9 @@
 // With visibility labels (pcp/cloud/visibility.hpp), a pocket whose labelled samples mostly say
 // outside is seen from outside, so it is not a cavity and stays: a through-hole whose plug the sign
 // repair flipped keeps the plug's small |F| there, below delta, so the outside front cannot enter
-// it, and its walls make most of its boundary (the built-in shape's hole, closed by the fill before). Needs every sample of the lattice (a dense
-// grid); otherwise, and above max_samples, nothing is done (stats.skipped).
+// it, and its walls make most of its boundary (the built-in shape's hole, closed by the fill
+// before). Needs every sample of the lattice (a dense grid); otherwise, and above max_samples,
+// nothing is done (stats.skipped).
 #pragma once
 
 #include "pcp/cloud/visibility.hpp"
