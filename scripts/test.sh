@@ -53,12 +53,12 @@ stage_done "Release build"
 run_ctest "$root/build-test" --output-on-failure -j "$jobs"
 stage_done "Release tests"
 
-# The readers' libFuzzer targets (tests/fuzz/), each run for PCP_FUZZ_SECONDS (default 10 here, 30 in CMake) from
+# The readers' libFuzzer targets (tests/fuzz/), each run for PCP_FUZZ_SECONDS (default 5 here, 30 in CMake) from
 # its seed corpus, where clang is installed (install-deps.sh installs it). Long campaigns:
 # scripts/fuzz.sh.
 if command -v clang++-14 >/dev/null; then
   cmake -S "$here" -B "$root/build-fuzz" -G Ninja -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_BUILD_TYPE=Debug \
-        -DCMAKE_CXX_FLAGS_DEBUG=-O0 -DPCP_FUZZ=ON -DPCP_FUZZ_SECONDS="${PCP_FUZZ_SECONDS:-10}" \
+        -DCMAKE_CXX_FLAGS_DEBUG=-O0 -DPCP_FUZZ=ON -DPCP_FUZZ_SECONDS="${PCP_FUZZ_SECONDS:-5}" \
         -DPCP_BUILD_APPS=OFF -DPCP_BUILD_TESTS=OFF -DPCP_BUILD_BENCH=OFF -DPCP_BUILD_PYTHON=OFF
   cmake --build "$root/build-fuzz" -j "$jobs"
   stage_done "fuzz build"

@@ -75,9 +75,15 @@ void shade(const std::uint8_t base[3], double intensity, std::uint8_t out[3]) {
     for (int k = 0; k < 3; ++k) out[k] = static_cast<std::uint8_t>(std::lround(std::clamp(base[k] * intensity, 0.0, 255.0)));
 }
 
-// Edge function of the directed edge a -> b at p: twice the signed area of (a, b, p).
+// Edge function of the directed edge a -> b at p: twice the signed area of (a, b, p). Evaluated
+// from the edge's endpoints in one canonical order and negated for the other, so that the two
+// faces sharing an edge get exactly opposite values at every pixel centre: a centre on the edge
+// (value 0) is inside both, never in neither. The plain formula is not antisymmetric in rounding
+// (another base point, and a fused multiply-add contracts one product but not the other), which
+// left a crack of background pixels along shared edges under some compilers.
 inline double edge(double ax, double ay, double bx, double by, double px, double py) {
-    return (bx - ax) * (py - ay) - (by - ay) * (px - ax);
+    if (ax < bx || (ax == bx && ay < by)) return (bx - ax) * (py - ay) - (by - ay) * (px - ax);
+    return -((ax - bx) * (py - by) - (ay - by) * (px - bx));
 }
 
 void draw_mesh(Panel& panel, const Mesh& mesh, const Camera& cam, bool back_distinct, double cut_z) {
