@@ -20,6 +20,7 @@
 #include "pcp/cloud/shapes.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
@@ -228,7 +229,12 @@ int main(int argc, char** argv) {
                         "not in the paper; helps noisy scans, thins thin parts of clean ones",
              cxxopts::value<std::string>()->default_value(d.denoise.automatic ? "auto" : std::to_string(d.denoise.passes)))
             ("denoise-neighbors", "Neighbours per plane fit of --denoise (3..256)",
-             cxxopts::value<int>()->default_value(std::to_string(d.denoise.neighbors)));
+             cxxopts::value<int>()->default_value(std::to_string(d.denoise.neighbors)))
+            ("denoise-mode-width", "0: --denoise projects onto the plane; W > 0: moves each point along the plane's "
+                                   "normal to the mode of its neighbours' heights nearest its own (kernel W x the cloud's "
+                                   "noise), keeping the two sides of a thin part apart (measured, not the default: "
+                                   "docs/BENCHMARKS.md)",
+             cxxopts::value<double>()->default_value(fmt(d.denoise.mode_width)));
         options.add_options("Self-prior (stage 1, the default; any of these implies --prior-source self)")
             ("prior-epochs", "Self-prior epochs (passes over the input's regions)", cxxopts::value<int>()->default_value(std::to_string(d.self_prior.epochs)))
             ("prior-steps", "Stop the self-prior after this many steps instead (0 = epochs x regions)",
@@ -400,6 +406,9 @@ int main(int argc, char** argv) {
         if (args.count("denoise-neighbors")) o.denoise.neighbors = args["denoise-neighbors"].as<int>();
         if (o.denoise.neighbors < 3 || o.denoise.neighbors > 256)
             throw pcp::cli::UsageError("--denoise-neighbors must be in [3, 256]");
+        if (args.count("denoise-mode-width")) o.denoise.mode_width = args["denoise-mode-width"].as<double>();
+        if (!(o.denoise.mode_width >= 0) || !std::isfinite(o.denoise.mode_width))
+            throw pcp::cli::UsageError("--denoise-mode-width must be a finite number >= 0");
         if (args.count("stop-rule")) {
             const std::string v = args["stop-rule"].as<std::string>();
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--stop-rule must be on or off (got '" + v + "')");
@@ -544,10 +553,13 @@ int main(int argc, char** argv) {
                                               {"output", output},
                                               {"prior", prior_description(o, prior_path, false)},
                                               {"preset", args.count("scene") ? std::string("scene") : args["preset"].as<std::string>()},
-                                              {"denoise", o.denoise.automatic    ? "auto, " + std::to_string(o.denoise.neighbors) + " neighbours"
+                                              {"denoise", std::string(o.denoise.automatic ? "auto, " + std::to_string(o.denoise.neighbors) + " neighbours"
                                                           : o.denoise.passes > 0 ? std::to_string(o.denoise.passes) + " passes, " +
                                                                                        std::to_string(o.denoise.neighbors) + " neighbours"
-                                                                                 : "off"},
+                                                                                 : "off") +
+                                                              (o.denoise.mode_width > 0 && (o.denoise.automatic || o.denoise.passes > 0)
+                                                                   ? ", to the own side's mode (width " + fmt(o.denoise.mode_width) + ")"
+                                                                   : "")},
                                               {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step) +
                                                                                   (o.fit.stop.enabled ? " (at most; stop rule on)" : "")},
                                               {"ablation", pcp::to_string(o.fit.ablation)},

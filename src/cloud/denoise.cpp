@@ -1,4 +1,5 @@
-// Plane-projection denoising (see include/pcp/denoise.hpp).
+// Denoising by the neighbours' plane: projection onto it, or the mode of the heights along its
+// normal (see include/pcp/cloud/denoise.hpp).
 #include "pcp/cloud/denoise.hpp"
 
 #include "pcp/core/error.hpp"
@@ -9,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 #include <vector>
 
 namespace pcp {
@@ -38,8 +40,22 @@ void for_each_neighbourhood(const Points& points, int k, Visit visit) {
             const Eigen::Vector3d d = points.row(neighbors(i, j)).transpose() - centroid;
             covariance += d * d.transpose();
         }
-        visit(i, centroid, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance));
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
+        if constexpr (std::is_invocable_v<Visit, Eigen::Index, const Eigen::Vector3d&, decltype(eigen), decltype(neighbors.row(i))>)
+            visit(i, centroid, eigen, neighbors.row(i));
+        else
+            visit(i, centroid, eigen);
     }
+}
+
+/// The median of |x - median(x)| (x is reordered).
+double median_absolute_deviation(std::vector<double>& x) {
+    const auto mid = x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2);
+    std::nth_element(x.begin(), mid, x.end());
+    const double median = *mid;
+    for (double& v : x) v = std::abs(v - median);
+    std::nth_element(x.begin(), mid, x.end());
+    return *mid;
 }
 
 }  // namespace
@@ -67,15 +83,57 @@ Points denoise_points(const Eigen::Ref<const Points>& points, const DenoiseOptio
               "denoise: neighbors must be in [3, 256] (got " << options.neighbors << ")");
     if (!options.automatic && options.passes == 0) return points;
     check_neighbors(points.rows(), options.neighbors);
+    PCP_CHECK(options.mode_width >= 0 && std::isfinite(options.mode_width),
+              "denoise: mode_width must be finite and >= 0 (got " << options.mode_width << ")");
     const int passes = denoise_passes(points, options);
+    const int k = options.neighbors;
     Points current = points;
     for (int pass = 0; pass < passes; ++pass) {
         Points next(current.rows(), 3);
-        for_each_neighbourhood(current, options.neighbors, [&](Eigen::Index i, const Eigen::Vector3d& centroid, const auto& eigen) {
-            const Eigen::Vector3d normal = eigen.eigenvectors().col(0);  // smallest eigenvalue first
-            const Eigen::Vector3d p = current.row(i).transpose();
-            next.row(i) = (p - normal * normal.dot(p - centroid)).transpose();
+        if (options.mode_width == 0) {
+            for_each_neighbourhood(current, k, [&](Eigen::Index i, const Eigen::Vector3d& centroid, const auto& eigen) {
+                const Eigen::Vector3d normal = eigen.eigenvectors().col(0);  // smallest eigenvalue first
+                const Eigen::Vector3d p = current.row(i).transpose();
+                next.row(i) = (p - normal * normal.dot(p - centroid)).transpose();
+            });
+            current = std::move(next);
+            continue;
+        }
+        // The neighbours' heights above each point along its plane's normal, and their spread.
+        Points normals(current.rows(), 3);
+        Eigen::MatrixXf heights(k, current.rows());
+        std::vector<double> spread(static_cast<std::size_t>(current.rows()));
+        for_each_neighbourhood(current, k, [&](Eigen::Index i, const Eigen::Vector3d&, const auto& eigen, const auto& ids) {
+            const Eigen::Vector3d normal = eigen.eigenvectors().col(0);
+            normals.row(i) = normal.transpose();
+            const Eigen::RowVector3d p = current.row(i);
+            std::vector<double> h(static_cast<std::size_t>(k));
+            for (int j = 0; j < k; ++j) {
+                h[std::size_t(j)] = (current.row(ids(j)) - p).dot(normal.transpose());
+                heights(j, i) = static_cast<float>(h[std::size_t(j)]);
+            }
+            spread[std::size_t(i)] = 1.4826 * median_absolute_deviation(h);
         });
+        std::nth_element(spread.begin(), spread.begin() + static_cast<std::ptrdiff_t>(spread.size() / 2), spread.end());
+        const double sigma = options.mode_width * spread[spread.size() / 2];
+        if (!(sigma > 0)) return current;  // no spread across the planes: nothing to denoise
+#pragma omp parallel for schedule(static)
+        for (Eigen::Index i = 0; i < current.rows(); ++i) {
+            double m = 0;  // mean shift from the point's own height
+            for (int round = 0; round < 20; ++round) {
+                double sw = 0, sh = 0;
+                for (int j = 0; j < k; ++j) {
+                    const double h = heights(j, i), z = (h - m) / sigma;
+                    const double w = std::exp(-0.5 * z * z);
+                    sw += w;
+                    sh += w * h;
+                }
+                const double step = sh / sw - m;  // the point itself (h = 0) keeps sw > 0
+                m += step;
+                if (std::abs(step) < 1e-4 * sigma) break;
+            }
+            next.row(i) = current.row(i) + m * normals.row(i);
+        }
         current = std::move(next);
     }
     return current;
