@@ -26,9 +26,9 @@ struct DenoiseOptions {
     /// Gaussian kernel of width mode_width x sigma, sigma the cloud's noise: the median over its
     /// points of the heights' median absolute deviation x 1.4826), so the other side's points,
     /// a thickness away, carry little weight. Measured with 2 on the 11 noisy shared cases
-    /// (docs/BENCHMARKS.md, "Denoising to the point's own sheet"): better on 8 of the 10 ABC scans
-    /// (abc_00010074 0.0128 -> 0.0092 L2-CD x 100), worse on abc_00010089 (x 1.9) and the noisy
-    /// bunny (x 1.17), so not the default yet.
+    /// (docs/BENCHMARKS.md, "Denoising to the point's own side of a thin part"), one seed each: lower
+    /// L2-CD on 8 of the 10 ABC scans, by less than the seeds' spread on abc_00010074, and worse on
+    /// abc_00010089 over two seeds (x 1.7-1.9), so not the default.
     double mode_width = 0.0;
 };
 
