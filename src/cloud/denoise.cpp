@@ -10,7 +10,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <type_traits>
 #include <vector>
 
 namespace pcp {
@@ -22,7 +21,8 @@ void check_neighbors(Eigen::Index n, int neighbors) {
 }
 
 /// For every point: the centroid of its k nearest neighbours and the eigen-decomposition of their
-/// covariance (eigenvalues ascending), passed to `visit(i, centroid, solver)`.
+/// covariance (eigenvalues ascending), passed with the neighbours' indices to
+/// `visit(i, centroid, solver, ids)`.
 template <class Visit>
 void for_each_neighbourhood(const Points& points, int k, Visit visit) {
     const PointsF unit_points = fit_unit_box(points).to_unit(points);
@@ -40,22 +40,22 @@ void for_each_neighbourhood(const Points& points, int k, Visit visit) {
             const Eigen::Vector3d d = points.row(neighbors(i, j)).transpose() - centroid;
             covariance += d * d.transpose();
         }
-        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
-        if constexpr (std::is_invocable_v<Visit, Eigen::Index, const Eigen::Vector3d&, decltype(eigen), decltype(neighbors.row(i))>)
-            visit(i, centroid, eigen, neighbors.row(i));
-        else
-            visit(i, centroid, eigen);
+        visit(i, centroid, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance), neighbors.row(i));
     }
 }
 
-/// The median of |x - median(x)| (x is reordered).
-double median_absolute_deviation(std::vector<double>& x) {
+/// The median (the upper one of an even count) of x, reordered.
+double median(std::vector<double>& x) {
     const auto mid = x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2);
     std::nth_element(x.begin(), mid, x.end());
-    const double median = *mid;
-    for (double& v : x) v = std::abs(v - median);
-    std::nth_element(x.begin(), mid, x.end());
     return *mid;
+}
+
+/// The median of |x - median(x)| (x is overwritten).
+double median_absolute_deviation(std::vector<double>& x) {
+    const double m = median(x);
+    for (double& v : x) v = std::abs(v - m);
+    return median(x);
 }
 
 }  // namespace
@@ -63,12 +63,11 @@ double median_absolute_deviation(std::vector<double>& x) {
 double noise_ratio(const Eigen::Ref<const Points>& points, int neighbors) {
     check_neighbors(points.rows(), neighbors);
     std::vector<double> ratio(static_cast<std::size_t>(points.rows()));
-    for_each_neighbourhood(Points(points), neighbors, [&](Eigen::Index i, const Eigen::Vector3d&, const auto& eigen) {
+    for_each_neighbourhood(Points(points), neighbors, [&](Eigen::Index i, const Eigen::Vector3d&, const auto& eigen, const auto&) {
         const Eigen::Vector3d l = eigen.eigenvalues().cwiseMax(0.0);
         ratio[std::size_t(i)] = l.sum() > 0 ? std::sqrt(l(0) / l.sum()) : 0.0;
     });
-    std::nth_element(ratio.begin(), ratio.begin() + ratio.size() / 2, ratio.end());
-    return ratio[ratio.size() / 2];
+    return median(ratio);
 }
 
 int denoise_passes(const Eigen::Ref<const Points>& points, const DenoiseOptions& options) {
@@ -91,7 +90,7 @@ Points denoise_points(const Eigen::Ref<const Points>& points, const DenoiseOptio
     for (int pass = 0; pass < passes; ++pass) {
         Points next(current.rows(), 3);
         if (options.mode_width == 0) {
-            for_each_neighbourhood(current, k, [&](Eigen::Index i, const Eigen::Vector3d& centroid, const auto& eigen) {
+            for_each_neighbourhood(current, k, [&](Eigen::Index i, const Eigen::Vector3d& centroid, const auto& eigen, const auto&) {
                 const Eigen::Vector3d normal = eigen.eigenvectors().col(0);  // smallest eigenvalue first
                 const Eigen::Vector3d p = current.row(i).transpose();
                 next.row(i) = (p - normal * normal.dot(p - centroid)).transpose();
@@ -107,15 +106,15 @@ Points denoise_points(const Eigen::Ref<const Points>& points, const DenoiseOptio
             const Eigen::Vector3d normal = eigen.eigenvectors().col(0);
             normals.row(i) = normal.transpose();
             const Eigen::RowVector3d p = current.row(i);
-            std::vector<double> h(static_cast<std::size_t>(k));
+            thread_local std::vector<double> h;  // one buffer per OpenMP worker, not one per point
+            h.resize(static_cast<std::size_t>(k));
             for (int j = 0; j < k; ++j) {
                 h[std::size_t(j)] = (current.row(ids(j)) - p).dot(normal.transpose());
                 heights(j, i) = static_cast<float>(h[std::size_t(j)]);
             }
             spread[std::size_t(i)] = 1.4826 * median_absolute_deviation(h);
         });
-        std::nth_element(spread.begin(), spread.begin() + static_cast<std::ptrdiff_t>(spread.size() / 2), spread.end());
-        const double sigma = options.mode_width * spread[spread.size() / 2];
+        const double sigma = options.mode_width * median(spread);
         if (!(sigma > 0)) return current;  // no spread across the planes: nothing to denoise
 #pragma omp parallel for schedule(static)
         for (Eigen::Index i = 0; i < current.rows(); ++i) {
