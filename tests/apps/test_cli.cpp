@@ -282,6 +282,16 @@ TEST_CASE("cli: pcp_reconstruct's sign-repair and denoise options: bad values ex
     const RunResult neighbours = run(bin("pcp_reconstruct") + " --denoise 1 --denoise-neighbors 2 x.ply");
     CHECK(neighbours.exit_code == 2);
     CHECK(neighbours.err.find("--denoise-neighbors must be in [3, 256]") != std::string::npos);
+    for (const char* width : {"-1", "-0.5"}) {
+        const RunResult r = run(bin("pcp_reconstruct") + " --denoise 1 --denoise-mode-width " + width + " x.ply");
+        INFO("--denoise-mode-width " << width << " stderr: " << r.err);
+        CHECK(r.exit_code == 2);
+        CHECK(r.err.find("--denoise-mode-width must be a finite number >= 0") != std::string::npos);
+    }
+    // Not a number: refused by the option parser (exit 2, the value named).
+    const RunResult nan_width = run(bin("pcp_reconstruct") + " --denoise 1 --denoise-mode-width nan x.ply");
+    CHECK(nan_width.exit_code == 2);
+    CHECK(nan_width.err.find("nan") != std::string::npos);
     const RunResult good = run(bin("pcp_reconstruct") + " --sign-repair off --sign-repair-resolution 32 --denoise auto --denoise-neighbors 30 /nonexistent/x.ply -o '" +
                                (case_dir("sign_repair") / "o.ply").string() + "'");
     INFO("stderr: " << good.err);
