@@ -627,8 +627,8 @@ int main(int argc, char** argv) {
           << (o.sign_repair.parity_votes > 0 ? " and " + std::to_string(report.sign_repair.parity_flipped) + " coarse samples by parity" : std::string())
           << ", cavity fill " << (report.cavity_fill.skipped ? std::string("skipped (grid too large)")
                                    : "filled " + std::to_string(report.cavity_fill.cavities) + " pockets" +
-                                         (report.cavity_fill.seen_from_outside > 0
-                                              ? " (kept " + std::to_string(report.cavity_fill.seen_from_outside) + " the visibility labels see from outside)"
+                                         (report.cavity_fill.labelled_cavities > 0
+                                              ? " (" + std::to_string(report.cavity_fill.labelled_cavities) + " of them open but labelled inside)"
                                               : std::string()))
           << ", fine repair flipped " << report.fine_repair.flipped_components << " of " << report.fine_repair.components
           << " thin regions" << (report.fine_repair.skipped ? " (skipped: grid too large)" : "")

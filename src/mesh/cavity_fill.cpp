@@ -4,7 +4,9 @@
 #include "pcp/core/error.hpp"
 #include "mesh/grid_samples.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 namespace pcp {
@@ -22,6 +24,7 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
     PCP_CHECK(options.min_label_votes >= 0, "cavity fill: min_label_votes must be >= 0");
     CavityFillStats st;
     if (!options.enabled) return st;
+    PCP_CHECK(options.labelled_max_open >= 0 && options.labelled_max_open <= 1, "cavity fill: labelled_max_open must be in [0, 1]");
     const bool vote = labels && options.min_label_votes > 0 && !labels->label.empty();
     const int R = grid.spec.resolution, n1 = R + 1;
     const std::int64_t total = std::int64_t(n1) * n1 * n1;
@@ -35,6 +38,15 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
     const std::vector<float> value = detail::lattice_values(grid);
     for (float v : value) PCP_CHECK(!std::isnan(v), "cavity fill: the dense grid misses a sample");
 
+    // The visibility label of every sample: -1 inside, +1 outside, 0 unknown or near the data.
+    std::vector<std::int8_t> sight;
+    if (vote) {
+        sight.resize(static_cast<std::size_t>(total));
+        for (std::int64_t g = 0; g < total; ++g)
+            sight[static_cast<std::size_t>(g)] = static_cast<std::int8_t>(
+                labels->label_at(grid.spec.sample_position(g % n1, (g / n1) % n1, g / (std::int64_t(n1) * n1))));
+    }
+    auto seen_at = [&sight](std::size_t g) { return sight.empty() ? 0 : int(sight[g]); };
     std::vector<std::uint8_t> label(static_cast<std::size_t>(total), kNone);
     std::vector<std::int64_t> front, next;
     auto neighbours = [n1](std::int64_t g, std::int64_t out[6]) {
@@ -48,11 +60,13 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
         if (k + 1 < n1) out[n++] = g + std::int64_t(n1) * n1;
         return n;
     };
-    // 1. The outside: from the box's faces through samples with F > delta.
+    // 1. The outside: from the box's faces through samples with F > delta; with labels also from
+    //    every positive sample labelled outside, and never into a sample labelled inside.
     for (std::int64_t g = 0; g < total; ++g) {
         const std::int64_t i = g % n1, j = (g / n1) % n1, k = g / (std::int64_t(n1) * n1);
         const bool face = i == 0 || j == 0 || k == 0 || i == R || j == R || k == R;
-        if (face && value[static_cast<std::size_t>(g)] > delta) {
+        const float v = value[static_cast<std::size_t>(g)];
+        if ((face && v > delta) || (v > 0.0f && seen_at(static_cast<std::size_t>(g)) > 0)) {
             label[static_cast<std::size_t>(g)] = kOutside;
             front.push_back(g);
         }
@@ -67,7 +81,7 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
                 const int n = neighbours(g, nb);
                 for (int a = 0; a < n; ++a) {
                     const auto h = static_cast<std::size_t>(nb[a]);
-                    if (label[h] == kNone && value[h] > floor) {
+                    if (label[h] == kNone && value[h] > floor && !(label[static_cast<std::size_t>(g)] == kOutside && seen_at(h) < 0)) {
                         label[h] = label[static_cast<std::size_t>(g)];
                         next.push_back(nb[a]);
                     }
@@ -77,18 +91,21 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
         }
     };
     grow(delta);
-    // 2. Cavity cores; 3. both grow one layer at a time through the remaining positive samples.
+    // 2. Cavity cores (and the positive samples labelled inside); 3. both grow one layer at a time
+    //    through the remaining positive samples.
     front.clear();
     for (std::int64_t g = 0; g < total; ++g) {
-        if (value[static_cast<std::size_t>(g)] > delta && label[static_cast<std::size_t>(g)] == kNone) label[static_cast<std::size_t>(g)] = kCavity;
-        if (label[static_cast<std::size_t>(g)] != kNone) front.push_back(g);
+        const auto s = static_cast<std::size_t>(g);
+        if (label[s] == kNone && (value[s] > delta || (value[s] > 0.0f && seen_at(s) < 0))) label[s] = kCavity;
+        if (label[s] != kNone) front.push_back(g);
     }
     grow(0.0f);
     // 4. Pockets: 6-connected components of the positive samples not labelled outside. A pocket is
     //    filled when little of its boundary is open to the outside (pairs with outside samples, at
     //    most max_open of its boundary pairs; the rest are pairs with negative samples): a cavity
     //    behind pinholes is, a bay of the outside that the core threshold cut off is not (filling
-    //    it would put a sheet where the two fronts met, away from the data).
+    //    it would put a sheet where the two fronts met, away from the data). A pocket the labels
+    //    call inside may be more open (labelled_max_open): its walls are perforated, not absent.
     std::vector<std::uint8_t> flip(static_cast<std::size_t>(total), 0);
     {
         std::vector<std::uint8_t> seen(static_cast<std::size_t>(total), 0);
@@ -118,19 +135,15 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
                 }
             }
             ++st.pockets;
-            if (double(open) > options.max_open * double(open + closed)) continue;
-            if (vote) {  // a closed-enough pocket the rays see out from is not a cavity
-                std::int64_t seen_outside = 0, seen_inside = 0;
-                for (std::int64_t c : members) {
-                    const int l = labels->label_at(grid.spec.sample_position(c % n1, (c / n1) % n1, c / (std::int64_t(n1) * n1)));
-                    seen_outside += l > 0;
-                    seen_inside += l < 0;
-                }
-                if (seen_outside >= options.min_label_votes && seen_outside > seen_inside) {
-                    ++st.seen_from_outside;
-                    continue;
-                }
+            std::int64_t inside_votes = 0, outside_votes = 0;
+            for (std::int64_t c : members) {
+                inside_votes += seen_at(static_cast<std::size_t>(c)) < 0;
+                outside_votes += seen_at(static_cast<std::size_t>(c)) > 0;
             }
+            const bool labelled_inside = vote && inside_votes >= options.min_label_votes && 20 * outside_votes <= inside_votes;
+            const double limit = labelled_inside ? std::max(options.labelled_max_open, options.max_open) : options.max_open;
+            if (double(open) > limit * double(open + closed)) continue;
+            st.labelled_cavities += labelled_inside && double(open) > options.max_open * double(open + closed);
             ++st.cavities;
             st.cavity_samples += static_cast<std::int64_t>(members.size());
             for (std::int64_t c : members) flip[static_cast<std::size_t>(c)] = 1;

@@ -332,7 +332,7 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
         const CavityFillStats again = fill_cavities(grid, fill, &labels);
         r.cavity_fill.cavities += again.cavities;
         r.cavity_fill.cavity_samples += again.cavity_samples;
-        r.cavity_fill.seen_from_outside += again.seen_from_outside;
+        r.cavity_fill.labelled_cavities += again.labelled_cavities;
     }
     r.winding_corrected = winding.corrected();
     r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations;
