@@ -269,6 +269,10 @@ int main(int argc, char** argv) {
                            "bounds the memory of huge inputs; the mesh and --normals still cover every point)",
              cxxopts::value<long>()->default_value(std::to_string(d.max_fit_points)))
             ("resolution", "Marching-cubes cells along the longest axis", cxxopts::value<int>()->default_value(std::to_string(d.resolution)))
+            ("grid-far-factor", "Dense grid (for the cavity and tunnel fills): blocks whose corners are farther than this x the "
+                                "block's half-diagonal from the zero set, all of one sign, are interpolated from their corners "
+                                "instead of evaluated (0: evaluate every sample)",
+             cxxopts::value<double>()->default_value(fmt(d.grid.far_factor)))
             ("iso", "Iso level", cxxopts::value<double>()->default_value(fmt(d.iso)))
             ("thin-offset", "Keep thin parts whole: near the data, extract at iso + this (unit-box units, the cloud's longest edge 1), then move the mesh back by it (0: off)",
              cxxopts::value<double>()->default_value(fmt(d.thin_offset)))
@@ -380,6 +384,9 @@ int main(int argc, char** argv) {
         o.max_fit_points = args["max-points"].as<long>();
         if (o.max_fit_points != 0 && o.max_fit_points < pcp::min_points_for(o.fit.sampling))
             throw pcp::cli::UsageError("--max-points must be 0 or >= " + std::to_string(pcp::min_points_for(o.fit.sampling)));
+        if (args.count("grid-far-factor")) o.grid.far_factor = args["grid-far-factor"].as<double>();
+        if (!(o.grid.far_factor >= 0) || !std::isfinite(o.grid.far_factor))
+            throw pcp::cli::UsageError("--grid-far-factor must be a finite number >= 0 (0 = evaluate every sample)");
         if (args.count("iso")) o.iso = args["iso"].as<double>();
         if (args.count("thin-offset")) o.thin_offset = args["thin-offset"].as<double>();
         if (args.count("margin")) o.margin = args["margin"].as<double>();

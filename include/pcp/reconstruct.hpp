@@ -70,7 +70,14 @@ struct ReconstructOptions {
     /// no sheet there. Unit-box units (the cloud's longest edge is 1); 0: off. Measured on every
     /// shared case (docs/BENCHMARKS.md, "Thin parts kept whole").
     double thin_offset = 0.002;
-    SdfGridOptions grid;             ///< narrow-band settings
+    /// Narrow-band settings. When the fills need the dense grid, the blocks whose corners certify
+    /// that they are far from the zero set are interpolated, not evaluated (far_factor 2, the
+    /// octree band's factor; docs/BENCHMARKS.md, "The dense grid from the blocks near the surface").
+    SdfGridOptions grid = [] {
+        SdfGridOptions g;
+        g.far_factor = 2.0;
+        return g;
+    }();
     WindingSignOptions winding_sign; ///< the sign away from the data by the winding number of the field-oriented points (not in the paper)
     SignRepairOptions sign_repair;   ///< flip regions whose sign the data does not support (not in the paper)
     CavityFillOptions cavity_fill;   ///< fill enclosed positive pockets (hollow shells of noisy scans) on a dense grid (not in the paper)

@@ -118,6 +118,10 @@ struct Builder {
     std::vector<std::int64_t> keys;
     std::vector<float> values;
     std::vector<std::pair<std::int64_t, int>> lookup;  // (key, index), sorted by key
+    std::vector<std::uint8_t> far;                     // per block (Dense with far_factor): filled from its corners
+    std::vector<float> corners;                        // (nb + 1)^3 field values at the blocks' corners
+
+    bool is_far(std::size_t b) const { return b < far.size() && far[b]; }
 
     void rebuild_lookup() {
         lookup.resize(keys.size());
@@ -206,6 +210,10 @@ void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, st
 #pragma omp parallel for schedule(dynamic, 16)
     for (std::int64_t b = std::int64_t(first); b < std::int64_t(K); ++b) {
         std::int64_t n = 0;
+        if (G.is_far(std::size_t(b))) {  // filled from its corners (fill_far_blocks), not evaluated
+            block_samples[std::size_t(b) - first] = 0;
+            continue;
+        }
         for_each_owned_sample(G, int(b), [&n](int, int, int) { ++n; });
         block_samples[std::size_t(b) - first] = n;
     }
@@ -245,6 +253,7 @@ void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, st
                     }
                     std::int64_t row = 0;
                     for (std::size_t b = group_begin[g]; b < group_begin[g + 1]; ++b) {
+                        if (G.is_far(b)) continue;
                         const Eigen::Vector3i X = L.coords(G.keys[b]);
                         for_each_owned_sample(G, int(b), [&](int i, int j, int k) {
                             const Eigen::Vector3d p = spec.sample_position(std::int64_t(X.x()) * L.B + i,
@@ -260,6 +269,7 @@ void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, st
                     check_finite(points.topRows(n), values.head(n));
                     row = 0;
                     for (std::size_t b = group_begin[g]; b < group_begin[g + 1]; ++b) {
+                        if (G.is_far(b)) continue;
                         float* block = G.values.data() + std::int64_t(b) * L.S3;
                         for_each_owned_sample(G, int(b), [&](int i, int j, int k) {
                             block[L.local_index(i, j, k)] = values[row++];
@@ -274,6 +284,65 @@ void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, st
         report(options, done, total, start);
     }
     stats.evaluations += total;
+}
+
+/// Dense with far_factor: evaluates the field at the (nb + 1)^3 block corners (a block's last corner
+/// on a truncated axis is sample R) and marks the blocks whose corners certify that no zero lies
+/// in them: one sign and |value| > far_factor * half-diagonal at all 8.
+void mark_far_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, const SdfGridOptions& options,
+                     SdfGridStats& stats) {
+    const Layout& L = G.L;
+    const int n1 = L.nb + 1;
+    PointsF points(std::int64_t(n1) * n1 * n1, 3);
+    for (int k = 0; k < n1; ++k)
+        for (int j = 0; j < n1; ++j)
+            for (int i = 0; i < n1; ++i) {
+                const Eigen::Vector3d p = spec.sample_position(std::min(i * L.B, L.R), std::min(j * L.B, L.R), std::min(k * L.B, L.R));
+                points.row((std::int64_t(k) * n1 + j) * n1 + i) = p.cast<float>().transpose();
+            }
+    const Eigen::VectorXf v = evaluate_points(sdf, points, options);
+    stats.coarse_evaluations += points.rows();
+    stats.evaluations += points.rows();
+    G.corners.assign(v.data(), v.data() + v.size());
+    G.far.assign(G.keys.size(), 0);
+    const Eigen::Vector3d spacing = spec.spacing();
+    for (std::size_t b = 0; b < G.keys.size(); ++b) {
+        const Eigen::Vector3i X = L.coords(G.keys[b]);
+        const Eigen::Vector3d extent(L.cells(X.x()) * spacing.x(), L.cells(X.y()) * spacing.y(), L.cells(X.z()) * spacing.z());
+        const double bound = options.far_factor * 0.5 * extent.norm();
+        int positive = 0, negative = 0;
+        for (int c = 0; c < 8; ++c) {
+            const float value = G.corners[std::size_t((std::int64_t(X.z() + (c >> 2 & 1)) * n1 + X.y() + (c >> 1 & 1)) * n1 + X.x() + (c & 1))];
+            if (!(std::abs(double(value)) > bound)) break;
+            (value > 0 ? positive : negative) += 1;
+        }
+        if (positive == 8 || negative == 8) {
+            G.far[b] = 1;
+            ++stats.interpolated_blocks;
+        }
+    }
+}
+
+/// Fills the samples that the far blocks own by trilinear interpolation of their corners.
+void fill_far_blocks(Builder& G) {
+    const Layout& L = G.L;
+    const int n1 = L.nb + 1;
+#pragma omp parallel for schedule(dynamic, 16)
+    for (std::int64_t b = 0; b < std::int64_t(G.keys.size()); ++b) {
+        if (!G.is_far(std::size_t(b))) continue;
+        const Eigen::Vector3i X = L.coords(G.keys[std::size_t(b)]);
+        const Eigen::Vector3i c(L.cells(X.x()), L.cells(X.y()), L.cells(X.z()));
+        float corner[8];
+        for (int q = 0; q < 8; ++q)
+            corner[q] = G.corners[std::size_t((std::int64_t(X.z() + (q >> 2 & 1)) * n1 + X.y() + (q >> 1 & 1)) * n1 + X.x() + (q & 1))];
+        float* block = G.values.data() + b * L.S3;
+        for_each_owned_sample(G, int(b), [&](int i, int j, int k) {
+            const float x = float(i) / float(c.x()), y = float(j) / float(c.y()), z = float(k) / float(c.z());
+            const float lo = (1 - y) * ((1 - x) * corner[0] + x * corner[1]) + y * ((1 - x) * corner[2] + x * corner[3]);
+            const float hi = (1 - y) * ((1 - x) * corner[4] + x * corner[5]) + y * ((1 - x) * corner[6] + x * corner[7]);
+            block[L.local_index(i, j, k)] = (1 - z) * lo + z * hi;
+        });
+    }
 }
 
 /// Coarse-to-fine band: an octree over the blocks, starting from one node covering all of them.
@@ -416,6 +485,8 @@ void check_options(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGridOpt
               "sdf_grid: coarse_factor " << options.coarse_factor << " must be positive (1 is exact for a true distance)");
     PCP_CHECK(std::isfinite(options.point_band_cells) && options.point_band_cells >= 0.0,
               "sdf_grid: point_band_cells " << options.point_band_cells << " must be >= 0");
+    PCP_CHECK(std::isfinite(options.far_factor) && options.far_factor >= 0.0,
+              "sdf_grid: far_factor " << options.far_factor << " must be >= 0 (0 = evaluate every sample)");
 }
 
 SdfGrid evaluate_impl(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGridOptions& options,
@@ -447,7 +518,9 @@ SdfGrid evaluate_impl(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGrid
 
     G.values.assign(G.keys.size() * std::size_t(G.L.S3), std::numeric_limits<float>::quiet_NaN());
     G.rebuild_lookup();
+    if (options.band == NarrowBand::Dense && options.far_factor > 0) mark_far_blocks(sdf, spec, G, options, grid.stats);
     evaluate_blocks(sdf, spec, G, 0, options, grid.stats, start);
+    fill_far_blocks(G);
     canonicalize(G);
 
     while (options.grow) {

@@ -1,6 +1,7 @@
 // Tests for pcp/sdf_grid.hpp: the lattice and stored samples, both narrow-band modes against the
 // dense reference (identical meshes), the growth pass, agreement of shared samples when the SDF
-// is not bit-reproducible across batches, batching and progress, and the errors for bad options.
+// is not bit-reproducible across batches, batching and progress, a dense grid whose far blocks are
+// interpolated from their corners (same signs, same mesh), and the errors for bad options.
 #include "mc_test_util.hpp"
 #include "pcp/core/error.hpp"
 #include "pcp/mesh/marching_cubes.hpp"
@@ -9,6 +10,7 @@
 #include <catch2/catch.hpp>
 
 #include <atomic>
+#include <cmath>
 #include <limits>
 #include <mutex>
 #include <stdexcept>
@@ -108,6 +110,45 @@ TEST_CASE("sdf_grid: both narrow bands give exactly the dense mesh", "[sdf_grid]
             }
         }
     }
+}
+
+TEST_CASE("sdf_grid: a dense grid with far blocks interpolated keeps every sign and the exact mesh", "[sdf_grid]") {
+    // Blocks of 4 at 61 cells (the last block truncated to 1 cell): the far blocks are filled from
+    // their corners, every other sample is the SDF's own value.
+    const std::vector<std::pair<const char*, ScalarSdf>> shapes = {
+        {"sphere", sphere_sdf({0.031, -0.017, 0.009}, 0.31)},
+        {"torus", torus_sdf({0.02, 0.01, -0.015}, 0.33, 0.13)},
+    };
+    for (const auto& [name, f] : shapes) {
+        INFO(name);
+        const pcp::GridSpec spec = cube_grid(61);
+        const pcp::SdfGrid dense = pcp::evaluate_sdf_grid(batch(f), spec, with_band(pcp::NarrowBand::Dense, 4));
+        pcp::SdfGridOptions opts = with_band(pcp::NarrowBand::Dense, 4);
+        opts.far_factor = 2.0;
+        const pcp::SdfGrid far = pcp::evaluate_sdf_grid(batch(f), spec, opts);
+        CHECK(far.num_blocks() == dense.num_blocks());
+        CHECK(far.stats.interpolated_blocks > far.num_blocks() / 3);
+        CHECK(far.stats.coarse_evaluations == 17 * 17 * 17);  // the corners of 16 x 16 x 16 blocks
+        CHECK(far.stats.evaluations < dense.stats.evaluations * 2 / 3);
+        std::int64_t differ = 0;
+        for (int k = 0; k <= 61; ++k)
+            for (int j = 0; j <= 61; ++j)
+                for (int i = 0; i <= 61; ++i) {
+                    const float a = dense.value(i, j, k), b = far.value(i, j, k);
+                    REQUIRE(std::isfinite(b));
+                    REQUIRE((a > 0) == (b > 0));
+                    // Interpolated samples lie at least (far_factor - 1) half-diagonals from the zero set.
+                    if (a != b) {
+                        ++differ;
+                        REQUIRE(std::abs(b) > 0.5 * std::sqrt(3.0) * 4 * spec.spacing().maxCoeff());
+                    }
+                }
+        CHECK(differ > 0);
+        require_same_mesh(pcp::marching_cubes(far), pcp::marching_cubes(dense));
+    }
+    pcp::SdfGridOptions bad = with_band(pcp::NarrowBand::Dense, 4);
+    bad.far_factor = -1;
+    CHECK_THROWS_AS(pcp::evaluate_sdf_grid(batch(shapes[0].second), cube_grid(8), bad), pcp::Error);
 }
 
 TEST_CASE("sdf_grid: growth follows the surface out of a band that misses part of it", "[sdf_grid]") {

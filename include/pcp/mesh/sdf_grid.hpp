@@ -62,13 +62,22 @@ struct SdfGridOptions {
     bool grow = true;              ///< add every missing block into which the zero set crosses from a stored one,
                                    ///< until none is left: the band then never cuts the surface open
     int batch_size = 4096;         ///< points per SdfBatchFn call (blocks are grouped up to this size)
+    /// Dense: the field is first evaluated at the blocks' corners only; a block whose 8 corners
+    /// have one sign and |sdf| > far_factor * its half-diagonal is far from the zero set (for a
+    /// true distance, factor 1 is exact) and is filled by trilinear interpolation of its corners
+    /// instead of being evaluated: every sample of the lattice is still stored (the cavity and
+    /// tunnel fills need them all), with the right sign and a magnitude above
+    /// (far_factor - 1) * half-diagonal for a 1-Lipschitz field, but only the blocks near the
+    /// zero set cost evaluations. 0 = evaluate every sample (the reference).
+    double far_factor = 0.0;
     ProgressCallback progress;     ///< stage "sdf-grid", step/total in SDF evaluations; false = cancel (pcp::Error)
 };
 
 /// What evaluate_sdf_grid did.
 struct SdfGridStats {
     std::int64_t evaluations = 0;         ///< SDF values computed in total (coarse + blocks)
-    std::int64_t coarse_evaluations = 0;  ///< of which octree node centres (Coarse band)
+    std::int64_t coarse_evaluations = 0;  ///< of which octree node centres (Coarse band) or block corners (far_factor)
+    std::int64_t interpolated_blocks = 0; ///< Dense with far_factor: blocks filled from their corners
     std::int64_t grown_blocks = 0;        ///< blocks added by the growth pass
     int growth_rounds = 0;                ///< growth passes that added blocks
 };
