@@ -1,8 +1,9 @@
 // pcp_reconstruct [INPUT] -o OUT: point cloud -> mesh by PCP. Without INPUT it runs on the
 // embedded default shape (a block with sharp edges, a through-hole and a thin fin, sampled with
-// noise). Without --prior it first learns a self-prior on the input (its region grid and
-// normalisation, --prior-grid / --prior-normalization, are the paper's ablation tables 11-12), or
-// with --prior-source builtin / auto fits against the built-in generic prior, fine-tuned on the input.
+// noise). Without --prior it fits against the built-in generic prior, fine-tuned on the input
+// (presets default and fast), or with --self-prior (--preset paper, scene) first learns a self-prior
+// on the input (its region grid and normalisation, --prior-grid / --prior-normalization, are the
+// paper's ablation tables 11-12).
 // Progress, checkpoints of the query-network stage (OUT.ckpt, every --checkpoint-every steps and
 // on SIGINT/SIGTERM), --resume, and a final report with times, memory, loss, mesh size and
 // closedness. Several inputs (files, directories, --list) with --output-dir DIR: one query network
@@ -235,7 +236,7 @@ int main(int argc, char** argv) {
                                    "noise), keeping the two sides of a thin part apart (measured, not the default: "
                                    "docs/BENCHMARKS.md)",
              cxxopts::value<double>()->default_value(fmt(d.denoise.mode_width)));
-        options.add_options("Self-prior (stage 1, the default; any of these implies --prior-source self)")
+        options.add_options("Self-prior (stage 1 learned on the input, --self-prior; any of these implies --prior-source self)")
             ("prior-epochs", "Self-prior epochs (passes over the input's regions)", cxxopts::value<int>()->default_value(std::to_string(d.self_prior.epochs)))
             ("prior-steps", "Stop the self-prior after this many steps instead (0 = epochs x regions)",
              cxxopts::value<long>()->default_value(std::to_string(d.self_prior.max_steps)))

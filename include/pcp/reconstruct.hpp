@@ -48,8 +48,8 @@ enum class PriorSource {
 
 struct ReconstructOptions {
     DenoiseOptions denoise;          ///< optional plane-projection denoising of the input (off; not in the paper)
-    /// When no prior is given. SelfPrior: the built-in prior is better on most ABC scans but not yet
-    /// on every family (the noisy bunny, the built-in shape; docs/BENCHMARKS.md, "Built-in prior").
+    /// When no prior is given. SelfPrior here (the paper's schedule); the "default" and "fast"
+    /// presets use Builtin (docs/BENCHMARKS.md, "The built-in prior as the default").
     PriorSource prior_source = PriorSource::SelfPrior;
     /// When the built-in prior is used: fine-tune the built-in prior on the input's regions for this many
     /// steps first (self_prior's regions, sampling and schedule; 0 = use it frozen).

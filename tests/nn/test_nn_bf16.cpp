@@ -181,6 +181,7 @@ TEST_CASE("reconstruct: under bf16 the SDF grid runs in fp32 unless asked otherw
     RestoreGemmSettings restore;
     set_gemm_precision(Precision::Bf16);
     pcp::ReconstructOptions o = pcp::ReconstructOptions::preset("fast");
+    o.prior_source = pcp::PriorSource::SelfPrior;  // a tiny self-prior: the test is about the grid's precision
     o.self_prior.network.width = 32;
     o.self_prior.network.depth = 4;
     o.self_prior.network.condition = 32;

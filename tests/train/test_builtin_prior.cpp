@@ -92,9 +92,10 @@ TEST_CASE("the built-in prior is the asset file and evaluates", "[train][builtin
 }
 
 TEST_CASE("reconstruct: the built-in prior frozen or tuned, a self-prior, and auto by the noise", "[train][builtin][heavy]") {
-    // Not the default yet (presets.cpp says why): a self-prior unless asked.
-    CHECK(pcp::ReconstructOptions::preset("default").prior_source == pcp::PriorSource::SelfPrior);
-    CHECK(pcp::ReconstructOptions::preset("fast").prior_source == pcp::PriorSource::SelfPrior);
+    // The default of the default and fast presets (presets.cpp says why); scenes and the paper's
+    // sizes keep a self-prior.
+    CHECK(pcp::ReconstructOptions::preset("default").prior_source == pcp::PriorSource::Builtin);
+    CHECK(pcp::ReconstructOptions::preset("fast").prior_source == pcp::PriorSource::Builtin);
     CHECK(pcp::ReconstructOptions::preset("scene").prior_source == pcp::PriorSource::SelfPrior);
     CHECK(pcp::ReconstructOptions::preset("default").prior_tune_steps == 300);
     CHECK(pcp::ReconstructOptions::preset("paper").prior_source == pcp::PriorSource::SelfPrior);
