@@ -13,6 +13,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <functional>
 
 using namespace pcp_test;
 
@@ -21,6 +22,19 @@ namespace {
 /// A sphere of radius R whose field is a shell: negative only between R - t and R.
 ScalarSdf hollow_sphere(double R, double t) {
     return [=](const Eigen::Vector3d& p) { return std::max(p.norm() - R, (R - t) - p.norm()); };
+}
+
+/// Visibility labels on 24^3 cells of 0.05 over the test grids' box [-0.6, 0.6]^3: label(centre).
+pcp::VisibilityLabels labels_over_cube(const std::function<int(const Eigen::Vector3d&)>& label) {
+    pcp::VisibilityLabels labels;
+    labels.origin = Eigen::Vector3d::Constant(-0.6);
+    labels.cell = 0.05;
+    labels.dims = Eigen::Vector3i::Constant(24);
+    labels.label.assign(24 * 24 * 24, 0);
+    for (int k = 0; k < 24; ++k)
+        for (int j = 0; j < 24; ++j)
+            for (int i = 0; i < 24; ++i) labels.label[labels.index(i, j, k)] = static_cast<std::int8_t>(label(labels.center(i, j, k)));
+    return labels;
 }
 
 }  // namespace
@@ -99,19 +113,12 @@ TEST_CASE("cavity fill: a through-hole's pocket that the visibility labels see f
     CHECK(filled.cavities == 1);
     CHECK(topology(pcp::marching_cubes(closed)).euler() == 2);
     // Labels: outside in the middle of the hole, inside in the slab away from the hole.
-    pcp::VisibilityLabels labels;
-    labels.origin = Eigen::Vector3d::Constant(-0.6);
-    labels.cell = 0.05;
-    labels.dims = Eigen::Vector3i::Constant(24);
-    labels.label.assign(24 * 24 * 24, 0);
-    for (int k = 0; k < 24; ++k)
-        for (int j = 0; j < 24; ++j)
-            for (int i = 0; i < 24; ++i) {
-                const Eigen::Vector3d c = labels.center(i, j, k);
-                const double r = std::hypot(c.x(), c.y());
-                if (r < 0.1 && std::abs(c.z()) < 0.25) labels.label[labels.index(i, j, k)] = 1;
-                if (r > 0.2 && holed(c) < -0.05) labels.label[labels.index(i, j, k)] = -1;
-            }
+    pcp::VisibilityLabels labels = labels_over_cube([&](const Eigen::Vector3d& c) {
+        const double r = std::hypot(c.x(), c.y());
+        if (r < 0.1 && std::abs(c.z()) < 0.25) return 1;
+        if (r > 0.2 && holed(c) < -0.05) return -1;
+        return 0;
+    });
     pcp::SdfGrid open = original;
     const pcp::CavityFillStats kept = pcp::fill_cavities(open, {}, &labels);
     CHECK(kept.cavities == 0);
@@ -143,18 +150,9 @@ TEST_CASE("cavity fill: a hollow solid perforated by wide tunnels is filled wher
     pcp::SdfGrid unlabelled = original;
     CHECK(pcp::fill_cavities(unlabelled).cavity_samples == 0);
     // Labels: inside in the core (cells whose centre is within 0.3 of the centre), outside beyond 0.5.
-    pcp::VisibilityLabels labels;
-    labels.origin = Eigen::Vector3d::Constant(-0.6);
-    labels.cell = 0.05;
-    labels.dims = Eigen::Vector3i::Constant(24);
-    labels.label.assign(24 * 24 * 24, 0);
-    for (int k = 0; k < 24; ++k)
-        for (int j = 0; j < 24; ++j)
-            for (int i = 0; i < 24; ++i) {
-                const double r = labels.center(i, j, k).norm();
-                if (r < 0.3) labels.label[labels.index(i, j, k)] = -1;
-                if (r > 0.5) labels.label[labels.index(i, j, k)] = 1;
-            }
+    const pcp::VisibilityLabels labels = labels_over_cube([](const Eigen::Vector3d& c) {
+        return c.norm() < 0.3 ? -1 : c.norm() > 0.5 ? 1 : 0;
+    });
     pcp::SdfGrid labelled = original;
     pcp::CavityFillOptions noisy;  // what pcp::reconstruct uses on a denoised cloud
     noisy.max_open = noisy.noisy_max_open;
@@ -175,12 +173,9 @@ TEST_CASE("cavity fill: a hollow solid perforated by wide tunnels is filled wher
     const ScalarSdf small_ball = sphere_sdf(Eigen::Vector3d(-0.3, -0.3, -0.3), 0.15);
     pcp::SdfGrid ball = dense_grid(small_ball, 64);
     const std::vector<float> ball_before = ball.values;
-    pcp::VisibilityLabels island = labels;
-    for (auto& l : island.label) l = 0;
-    for (int k = 0; k < 24; ++k)
-        for (int j = 0; j < 24; ++j)
-            for (int i = 0; i < 24; ++i)
-                if ((labels.center(i, j, k) - Eigen::Vector3d(0.3, 0.3, 0.3)).norm() < 0.12) island.label[island.index(i, j, k)] = -1;
+    const pcp::VisibilityLabels island = labels_over_cube([](const Eigen::Vector3d& c) {
+        return (c - Eigen::Vector3d(0.3, 0.3, 0.3)).norm() < 0.12 ? -1 : 0;
+    });
     CHECK(pcp::fill_cavities(ball, {}, &island).cavity_samples == 0);
     CHECK(ball.values == ball_before);
 }
