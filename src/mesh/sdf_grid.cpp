@@ -122,6 +122,11 @@ struct Builder {
     std::vector<float> corners;                        // (nb + 1)^3 field values at the blocks' corners
 
     bool is_far(std::size_t b) const { return b < far.size() && far[b]; }
+    /// Corner c (bit 0: +x, bit 1: +y, bit 2: +z) of block X.
+    float corner(const Eigen::Vector3i& X, int c) const {
+        const std::int64_t n1 = L.nb + 1;
+        return corners[std::size_t((std::int64_t(X.z() + (c >> 2 & 1)) * n1 + X.y() + (c >> 1 & 1)) * n1 + X.x() + (c & 1))];
+    }
 
     void rebuild_lookup() {
         lookup.resize(keys.size());
@@ -312,7 +317,7 @@ void mark_far_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, co
         const double bound = options.far_factor * 0.5 * extent.norm();
         int positive = 0, negative = 0;
         for (int c = 0; c < 8; ++c) {
-            const float value = G.corners[std::size_t((std::int64_t(X.z() + (c >> 2 & 1)) * n1 + X.y() + (c >> 1 & 1)) * n1 + X.x() + (c & 1))];
+            const float value = G.corner(X, c);
             if (!(std::abs(double(value)) > bound)) break;
             (value > 0 ? positive : negative) += 1;
         }
@@ -325,16 +330,15 @@ void mark_far_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, co
 
 /// Fills the samples that the far blocks own by trilinear interpolation of their corners.
 void fill_far_blocks(Builder& G) {
+    if (G.far.empty()) return;
     const Layout& L = G.L;
-    const int n1 = L.nb + 1;
 #pragma omp parallel for schedule(dynamic, 16)
     for (std::int64_t b = 0; b < std::int64_t(G.keys.size()); ++b) {
         if (!G.is_far(std::size_t(b))) continue;
         const Eigen::Vector3i X = L.coords(G.keys[std::size_t(b)]);
         const Eigen::Vector3i c(L.cells(X.x()), L.cells(X.y()), L.cells(X.z()));
         float corner[8];
-        for (int q = 0; q < 8; ++q)
-            corner[q] = G.corners[std::size_t((std::int64_t(X.z() + (q >> 2 & 1)) * n1 + X.y() + (q >> 1 & 1)) * n1 + X.x() + (q & 1))];
+        for (int q = 0; q < 8; ++q) corner[q] = G.corner(X, q);
         float* block = G.values.data() + b * L.S3;
         for_each_owned_sample(G, int(b), [&](int i, int j, int k) {
             const float x = float(i) / float(c.x()), y = float(j) / float(c.y()), z = float(k) / float(c.z());
