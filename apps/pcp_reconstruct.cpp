@@ -270,10 +270,13 @@ int main(int argc, char** argv) {
                            "bounds the memory of huge inputs; the mesh and --normals still cover every point)",
              cxxopts::value<long>()->default_value(std::to_string(d.max_fit_points)))
             ("resolution", "Marching-cubes cells along the longest axis", cxxopts::value<int>()->default_value(std::to_string(d.resolution)))
-            ("grid-far-factor", "Dense grid (for the cavity and tunnel fills): blocks whose corners are farther than this x the "
+            ("grid-far-factor", "Dense grids (for the cavity and tunnel fills, and the sign repair's coarse grid): blocks whose corners are farther than this x the "
                                 "block's half-diagonal from the zero set, all of one sign, are interpolated from their corners "
                                 "instead of evaluated (0: evaluate every sample)",
              cxxopts::value<double>()->default_value(fmt(d.grid.far_factor)))
+            ("grid-far-levels", "Dense grid: levels of that test, each splitting the cells that are not far into 8 halves "
+                                "(1: the 8-cell blocks only; 3: down to 2-cell cells, the rest evaluated)",
+             cxxopts::value<int>()->default_value(std::to_string(d.grid.far_levels)))
             ("iso", "Iso level", cxxopts::value<double>()->default_value(fmt(d.iso)))
             ("thin-offset", "Keep thin parts whole: near the data, extract at iso + this (unit-box units, the cloud's longest edge 1), then move the mesh back by it (0: off)",
              cxxopts::value<double>()->default_value(fmt(d.thin_offset)))
@@ -388,6 +391,12 @@ int main(int argc, char** argv) {
         if (args.count("grid-far-factor")) o.grid.far_factor = args["grid-far-factor"].as<double>();
         if (!(o.grid.far_factor >= 0) || !std::isfinite(o.grid.far_factor))
             throw pcp::cli::UsageError("--grid-far-factor must be a finite number >= 0 (0 = evaluate every sample)");
+        if (args.count("grid-far-levels")) o.grid.far_levels = args["grid-far-levels"].as<int>();
+        if (o.grid.far_levels < 1 || o.grid.far_levels > 4)
+            throw pcp::cli::UsageError("--grid-far-levels must be 1, 2, 3 or 4 (the 8-cell blocks halved at most down to 1 cell)");
+        // The sign repair's coarse grid the same way.
+        o.sign_repair.far_factor = o.grid.far_factor;
+        o.sign_repair.far_levels = o.grid.far_levels;
         if (args.count("iso")) o.iso = args["iso"].as<double>();
         if (args.count("thin-offset")) o.thin_offset = args["thin-offset"].as<double>();
         if (args.count("margin")) o.margin = args["margin"].as<double>();

@@ -76,6 +76,7 @@ struct ReconstructOptions {
     SdfGridOptions grid = [] {
         SdfGridOptions g;
         g.far_factor = 2.0;
+        g.far_levels = 3;
         return g;
     }();
     WindingSignOptions winding_sign; ///< the sign away from the data by the winding number of the field-oriented points (not in the paper)

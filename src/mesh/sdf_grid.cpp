@@ -118,15 +118,6 @@ struct Builder {
     std::vector<std::int64_t> keys;
     std::vector<float> values;
     std::vector<std::pair<std::int64_t, int>> lookup;  // (key, index), sorted by key
-    std::vector<std::uint8_t> far;                     // per block (Dense with far_factor): filled from its corners
-    std::vector<float> corners;                        // (nb + 1)^3 field values at the blocks' corners
-
-    bool is_far(std::size_t b) const { return b < far.size() && far[b]; }
-    /// Corner c (bit 0: +x, bit 1: +y, bit 2: +z) of block X.
-    float corner(const Eigen::Vector3i& X, int c) const {
-        const std::int64_t n1 = L.nb + 1;
-        return corners[std::size_t((std::int64_t(X.z() + (c >> 2 & 1)) * n1 + X.y() + (c >> 1 & 1)) * n1 + X.x() + (c & 1))];
-    }
 
     void rebuild_lookup() {
         lookup.resize(keys.size());
@@ -215,10 +206,6 @@ void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, st
 #pragma omp parallel for schedule(dynamic, 16)
     for (std::int64_t b = std::int64_t(first); b < std::int64_t(K); ++b) {
         std::int64_t n = 0;
-        if (G.is_far(std::size_t(b))) {  // filled from its corners (fill_far_blocks), not evaluated
-            block_samples[std::size_t(b) - first] = 0;
-            continue;
-        }
         for_each_owned_sample(G, int(b), [&n](int, int, int) { ++n; });
         block_samples[std::size_t(b) - first] = n;
     }
@@ -258,7 +245,6 @@ void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, st
                     }
                     std::int64_t row = 0;
                     for (std::size_t b = group_begin[g]; b < group_begin[g + 1]; ++b) {
-                        if (G.is_far(b)) continue;
                         const Eigen::Vector3i X = L.coords(G.keys[b]);
                         for_each_owned_sample(G, int(b), [&](int i, int j, int k) {
                             const Eigen::Vector3d p = spec.sample_position(std::int64_t(X.x()) * L.B + i,
@@ -274,7 +260,6 @@ void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, st
                     check_finite(points.topRows(n), values.head(n));
                     row = 0;
                     for (std::size_t b = group_begin[g]; b < group_begin[g + 1]; ++b) {
-                        if (G.is_far(b)) continue;
                         float* block = G.values.data() + std::int64_t(b) * L.S3;
                         for_each_owned_sample(G, int(b), [&](int i, int j, int k) {
                             block[L.local_index(i, j, k)] = values[row++];
@@ -291,63 +276,173 @@ void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, st
     stats.evaluations += total;
 }
 
-/// Dense with far_factor: evaluates the field at the (nb + 1)^3 block corners (a block's last corner
-/// on a truncated axis is sample R) and marks the blocks whose corners certify that no zero lies
-/// in them: one sign and |value| > far_factor * half-diagonal at all 8.
-void mark_far_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, const SdfGridOptions& options,
-                     SdfGridStats& stats) {
-    const Layout& L = G.L;
-    const int n1 = L.nb + 1;
-    PointsF points(std::int64_t(n1) * n1 * n1, 3);
-    for (int k = 0; k < n1; ++k)
-        for (int j = 0; j < n1; ++j)
-            for (int i = 0; i < n1; ++i) {
-                const Eigen::Vector3d p = spec.sample_position(std::min(i * L.B, L.R), std::min(j * L.B, L.R), std::min(k * L.B, L.R));
-                points.row((std::int64_t(k) * n1 + j) * n1 + i) = p.cast<float>().transpose();
+/// Dense with far_factor: the lattice refined cell by cell from the blocks down, so that only the
+/// samples near the zero set are evaluated. A cell of the current level whose 8 corners have one
+/// sign and |value| > far_factor * its half-diagonal is far from the zero set; it is filled later
+/// by trilinear interpolation of its corners. Any other cell is split into its 8 halves for the
+/// next level (their corners evaluated), and at the last of options.far_levels levels every
+/// sample of its closed box is evaluated. The far and the evaluated cells partition the lattice
+/// (a cell holds the samples of its half-open box, plus those on the grid's last plane), so each
+/// interpolated sample has one cell and the parallel fill is deterministic. Every value is
+/// written to its owner block (sample_owner's first choice, which a dense grid always stores);
+/// canonicalize copies it to the other blocks.
+class DenseRefinement {
+public:
+    DenseRefinement(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, const SdfGridOptions& options,
+                    SdfGridStats& stats, std::chrono::steady_clock::time_point start)
+        : sdf_(sdf), spec_(spec), G_(G), L_(G.L), options_(options), stats_(stats), start_(start),
+          total_(std::int64_t(G.L.R + 1) * (G.L.R + 1) * (G.L.R + 1)) {}
+
+    void run() {
+        report(options_, 0, total_, start_);
+        std::vector<Cell> cells;
+        for (int bz = 0; bz < L_.nb; ++bz)
+            for (int by = 0; by < L_.nb; ++by)
+                for (int bx = 0; bx < L_.nb; ++bx) cells.push_back({Eigen::Vector3i(bx, by, bz) * L_.B, L_.B});
+        std::vector<Cell> far, last;
+        for (int level = 0; !cells.empty(); ++level) {
+            std::vector<std::int64_t> corners;
+            for (const Cell& c : cells)
+                for (int q = 0; q < 8; ++q) corners.push_back(linear(corner(c, q)));
+            const std::int64_t evaluated = evaluate(corners);
+            if (level == 0) stats_.coarse_evaluations += evaluated;
+            std::vector<Cell> next;
+            for (const Cell& c : cells) {
+                if (is_far(c)) {
+                    far.push_back(c);
+                    if (level == 0) ++stats_.interpolated_blocks;
+                } else if (level + 1 < options_.far_levels && c.size > 1) {
+                    split(c, next);
+                } else {
+                    last.push_back(c);
+                }
             }
-    const Eigen::VectorXf v = evaluate_points(sdf, points, options);
-    stats.coarse_evaluations += points.rows();
-    stats.evaluations += points.rows();
-    G.corners.assign(v.data(), v.data() + v.size());
-    G.far.assign(G.keys.size(), 0);
-    const Eigen::Vector3d spacing = spec.spacing();
-    for (std::size_t b = 0; b < G.keys.size(); ++b) {
-        const Eigen::Vector3i X = L.coords(G.keys[b]);
-        const Eigen::Vector3d extent(L.cells(X.x()) * spacing.x(), L.cells(X.y()) * spacing.y(), L.cells(X.z()) * spacing.z());
-        const double bound = options.far_factor * 0.5 * extent.norm();
+            cells.swap(next);
+        }
+        // Every sample of the cells that may hold the zero set.
+        std::vector<std::int64_t> samples;
+        for (const Cell& c : last) {
+            const Eigen::Vector3i e = extent(c);
+            for (int k = 0; k <= e.z(); ++k)
+                for (int j = 0; j <= e.y(); ++j)
+                    for (int i = 0; i <= e.x(); ++i) samples.push_back(linear(c.origin + Eigen::Vector3i(i, j, k)));
+        }
+        evaluate(samples);
+        fill(far);
+        report(options_, total_, total_, start_);
+    }
+
+private:
+    struct Cell {
+        Eigen::Vector3i origin;  // lattice coordinates of its lowest sample
+        int size;                // nominal cells per edge (truncated by the grid's end: extent())
+    };
+
+    Eigen::Vector3i extent(const Cell& c) const {
+        return {std::min(c.size, L_.R - c.origin.x()), std::min(c.size, L_.R - c.origin.y()),
+                std::min(c.size, L_.R - c.origin.z())};
+    }
+    /// Corner q (bit 0: +x, bit 1: +y, bit 2: +z).
+    Eigen::Vector3i corner(const Cell& c, int q) const {
+        const Eigen::Vector3i e = extent(c);
+        return c.origin + Eigen::Vector3i(q & 1 ? e.x() : 0, q & 2 ? e.y() : 0, q & 4 ? e.z() : 0);
+    }
+    std::int64_t linear(const Eigen::Vector3i& g) const {
+        const std::int64_t n1 = L_.R + 1;
+        return (std::int64_t(g.z()) * n1 + g.y()) * n1 + g.x();
+    }
+    Eigen::Vector3i unlinear(std::int64_t n) const {
+        const std::int64_t n1 = L_.R + 1;
+        return {int(n % n1), int((n / n1) % n1), int(n / (n1 * n1))};
+    }
+    /// The owner's stored copy of global sample g (dense grid: block key = block index).
+    float& at(const Eigen::Vector3i& g) const {
+        const Eigen::Vector3i X(std::min(g.x() / L_.B, L_.nb - 1), std::min(g.y() / L_.B, L_.nb - 1),
+                                std::min(g.z() / L_.B, L_.nb - 1));
+        const Eigen::Vector3i l = g - X * L_.B;
+        return G_.values[std::size_t(L_.key(X.x(), X.y(), X.z()) * L_.S3 + L_.local_index(l.x(), l.y(), l.z()))];
+    }
+    bool is_far(const Cell& c) const {
+        const double bound = options_.far_factor * 0.5 * (extent(c).cast<double>().array() * spec_.spacing().array()).matrix().norm();
         int positive = 0, negative = 0;
-        for (int c = 0; c < 8; ++c) {
-            const float value = G.corner(X, c);
-            if (!(std::abs(double(value)) > bound)) break;
+        for (int q = 0; q < 8; ++q) {
+            const float value = at(corner(c, q));
+            if (!(std::abs(double(value)) > bound)) return false;
             (value > 0 ? positive : negative) += 1;
         }
-        if (positive == 8 || negative == 8) {
-            G.far[b] = 1;
-            ++stats.interpolated_blocks;
+        return positive == 8 || negative == 8;
+    }
+    void split(const Cell& c, std::vector<Cell>& out) const {
+        const int h = c.size / 2;
+        for (int q = 0; q < 8; ++q) {
+            const Eigen::Vector3i o = c.origin + Eigen::Vector3i(q & 1 ? h : 0, q & 2 ? h : 0, q & 4 ? h : 0);
+            if ((o.array() < L_.R).all()) out.push_back({o, h});
         }
     }
-}
 
-/// Fills the samples that the far blocks own by trilinear interpolation of their corners.
-void fill_far_blocks(Builder& G) {
-    if (G.far.empty()) return;
-    const Layout& L = G.L;
-#pragma omp parallel for schedule(dynamic, 16)
-    for (std::int64_t b = 0; b < std::int64_t(G.keys.size()); ++b) {
-        if (!G.is_far(std::size_t(b))) continue;
-        const Eigen::Vector3i X = L.coords(G.keys[std::size_t(b)]);
-        const Eigen::Vector3i c(L.cells(X.x()), L.cells(X.y()), L.cells(X.z()));
-        float corner[8];
-        for (int q = 0; q < 8; ++q) corner[q] = G.corner(X, q);
-        float* block = G.values.data() + b * L.S3;
-        for_each_owned_sample(G, int(b), [&](int i, int j, int k) {
-            const float x = float(i) / float(c.x()), y = float(j) / float(c.y()), z = float(k) / float(c.z());
-            const float lo = (1 - y) * ((1 - x) * corner[0] + x * corner[1]) + y * ((1 - x) * corner[2] + x * corner[3]);
-            const float hi = (1 - y) * ((1 - x) * corner[4] + x * corner[5]) + y * ((1 - x) * corner[6] + x * corner[7]);
-            block[L.local_index(i, j, k)] = (1 - z) * lo + z * hi;
-        });
+    /// Evaluates the samples among `wanted` (global linear indices, repeats allowed) that have no
+    /// value yet, in chunks with progress between them; returns how many.
+    std::int64_t evaluate(std::vector<std::int64_t>& wanted) {
+        std::sort(wanted.begin(), wanted.end());
+        wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
+        wanted.erase(std::remove_if(wanted.begin(), wanted.end(), [&](std::int64_t n) { return !std::isnan(at(unlinear(n))); }),
+                     wanted.end());
+        const std::int64_t n = std::int64_t(wanted.size());
+        const std::int64_t chunk = std::int64_t(options_.batch_size) * 16 * std::max(1, omp_get_max_threads());
+        for (std::int64_t first = 0; first < n; first += chunk) {
+            const std::int64_t count = std::min(chunk, n - first);
+            PointsF points(count, 3);
+            for (std::int64_t r = 0; r < count; ++r) {
+                const Eigen::Vector3i g = unlinear(wanted[std::size_t(first + r)]);
+                points.row(r) = spec_.sample_position(g.x(), g.y(), g.z()).cast<float>().transpose();
+            }
+            const Eigen::VectorXf values = evaluate_points(sdf_, points, options_);
+            for (std::int64_t r = 0; r < count; ++r) at(unlinear(wanted[std::size_t(first + r)])) = values[r];
+            done_ += count;
+            report(options_, done_, total_, start_);
+        }
+        stats_.evaluations += n;
+        return n;
     }
-}
+
+    /// The samples of the far cells' half-open boxes that were not evaluated, from their corners.
+    void fill(const std::vector<Cell>& far) {
+        std::int64_t filled = 0;
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : filled)
+        for (std::int64_t f = 0; f < std::int64_t(far.size()); ++f) {
+            const Cell& c = far[std::size_t(f)];
+            const Eigen::Vector3i e = extent(c);
+            float v[8];
+            for (int q = 0; q < 8; ++q) v[q] = at(corner(c, q));
+            // The half-open box, closed on the grid's last plane.
+            const Eigen::Vector3i end(c.origin.x() + e.x() == L_.R ? e.x() : e.x() - 1,
+                                      c.origin.y() + e.y() == L_.R ? e.y() : e.y() - 1,
+                                      c.origin.z() + e.z() == L_.R ? e.z() : e.z() - 1);
+            for (int k = 0; k <= end.z(); ++k)
+                for (int j = 0; j <= end.y(); ++j)
+                    for (int i = 0; i <= end.x(); ++i) {
+                        float& s = at(c.origin + Eigen::Vector3i(i, j, k));
+                        if (!std::isnan(s)) continue;
+                        const float x = float(i) / float(e.x()), y = float(j) / float(e.y()), z = float(k) / float(e.z());
+                        const float lo = (1 - y) * ((1 - x) * v[0] + x * v[1]) + y * ((1 - x) * v[2] + x * v[3]);
+                        const float hi = (1 - y) * ((1 - x) * v[4] + x * v[5]) + y * ((1 - x) * v[6] + x * v[7]);
+                        s = (1 - z) * lo + z * hi;
+                        ++filled;
+                    }
+        }
+        stats_.interpolated_samples += filled;
+    }
+
+    const SdfBatchFn& sdf_;
+    const GridSpec& spec_;
+    Builder& G_;
+    const Layout& L_;
+    const SdfGridOptions& options_;
+    SdfGridStats& stats_;
+    std::chrono::steady_clock::time_point start_;
+    std::int64_t total_;
+    std::int64_t done_ = 0;
+};
 
 /// Coarse-to-fine band: an octree over the blocks, starting from one node covering all of them.
 /// A node is refined (or, at block size, kept) when |sdf(centre)| <= factor * half-diagonal:
@@ -491,6 +586,9 @@ void check_options(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGridOpt
               "sdf_grid: point_band_cells " << options.point_band_cells << " must be >= 0");
     PCP_CHECK(std::isfinite(options.far_factor) && options.far_factor >= 0.0,
               "sdf_grid: far_factor " << options.far_factor << " must be >= 0 (0 = evaluate every sample)");
+    PCP_CHECK(options.far_levels >= 1 && options.far_levels <= 7 && options.block_cells % (1 << (options.far_levels - 1)) == 0,
+              "sdf_grid: far_levels " << options.far_levels << " must be in 1..7 and halve block_cells "
+                  << options.block_cells << " evenly at every level");
 }
 
 SdfGrid evaluate_impl(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGridOptions& options,
@@ -522,9 +620,10 @@ SdfGrid evaluate_impl(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGrid
 
     G.values.assign(G.keys.size() * std::size_t(G.L.S3), std::numeric_limits<float>::quiet_NaN());
     G.rebuild_lookup();
-    if (options.band == NarrowBand::Dense && options.far_factor > 0) mark_far_blocks(sdf, spec, G, options, grid.stats);
-    evaluate_blocks(sdf, spec, G, 0, options, grid.stats, start);
-    fill_far_blocks(G);
+    if (options.band == NarrowBand::Dense && options.far_factor > 0)
+        DenseRefinement(sdf, spec, G, options, grid.stats, start).run();
+    else
+        evaluate_blocks(sdf, spec, G, 0, options, grid.stats, start);
     canonicalize(G);
 
     while (options.grow) {

@@ -56,6 +56,8 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& t
     // 1. The coarse field, through the grid module's dense mode (same batching, same checks).
     SdfGridOptions go;
     go.band = NarrowBand::Dense;
+    go.far_factor = options.far_factor;
+    go.far_levels = options.far_levels;
     const SdfGrid grid = evaluate_sdf_grid(field, spec_, go);
     stats_.evaluations = grid.stats.evaluations;
     const int n1 = spec_.resolution + 1;

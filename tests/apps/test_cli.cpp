@@ -291,6 +291,12 @@ TEST_CASE("cli: pcp_reconstruct's sign-repair and denoise options: bad values ex
     const RunResult far = run(bin("pcp_reconstruct") + " --grid-far-factor -2 x.ply");
     CHECK(far.exit_code == 2);
     CHECK(far.err.find("--grid-far-factor must be a finite number >= 0") != std::string::npos);
+    for (const char* levels : {"0", "5"}) {
+        const RunResult r = run(bin("pcp_reconstruct") + " --grid-far-levels " + levels + " x.ply");
+        INFO("--grid-far-levels " << levels << " stderr: " << r.err);
+        CHECK(r.exit_code == 2);
+        CHECK(r.err.find("--grid-far-levels must be 1, 2, 3 or 4") != std::string::npos);
+    }
     // Not a number: refused by the option parser (exit 2, the value named).
     const RunResult nan_width = run(bin("pcp_reconstruct") + " --denoise 1 --denoise-mode-width nan x.ply");
     CHECK(nan_width.exit_code == 2);

@@ -112,9 +112,10 @@ TEST_CASE("sdf_grid: both narrow bands give exactly the dense mesh", "[sdf_grid]
     }
 }
 
-TEST_CASE("sdf_grid: a dense grid with far blocks interpolated keeps every sign and the exact mesh", "[sdf_grid]") {
-    // Blocks of 4 at 61 cells (the last block truncated to 1 cell): the far blocks are filled from
-    // their corners, every other sample is the SDF's own value.
+TEST_CASE("sdf_grid: a dense grid with far cells interpolated keeps every sign and the exact mesh", "[sdf_grid]") {
+    // Blocks of 4 at 61 cells (the last block truncated to 1 cell): the far cells are filled from
+    // their corners, every other sample is the SDF's own value. One level tests the blocks only;
+    // two and three levels also their halves (2 cells) and quarters (1 cell).
     const std::vector<std::pair<const char*, ScalarSdf>> shapes = {
         {"sphere", sphere_sdf({0.031, -0.017, 0.009}, 0.31)},
         {"torus", torus_sdf({0.02, 0.01, -0.015}, 0.33, 0.13)},
@@ -123,31 +124,51 @@ TEST_CASE("sdf_grid: a dense grid with far blocks interpolated keeps every sign 
         INFO(name);
         const pcp::GridSpec spec = cube_grid(61);
         const pcp::SdfGrid dense = pcp::evaluate_sdf_grid(batch(f), spec, with_band(pcp::NarrowBand::Dense, 4));
-        pcp::SdfGridOptions opts = with_band(pcp::NarrowBand::Dense, 4);
-        opts.far_factor = 2.0;
-        const pcp::SdfGrid far = pcp::evaluate_sdf_grid(batch(f), spec, opts);
-        CHECK(far.num_blocks() == dense.num_blocks());
-        CHECK(far.stats.interpolated_blocks > far.num_blocks() / 3);
-        CHECK(far.stats.coarse_evaluations == 17 * 17 * 17);  // the corners of 16 x 16 x 16 blocks
-        CHECK(far.stats.evaluations < dense.stats.evaluations * 2 / 3);
-        std::int64_t differ = 0;
-        for (int k = 0; k <= 61; ++k)
-            for (int j = 0; j <= 61; ++j)
-                for (int i = 0; i <= 61; ++i) {
-                    const float a = dense.value(i, j, k), b = far.value(i, j, k);
-                    REQUIRE(std::isfinite(b));
-                    REQUIRE((a > 0) == (b > 0));
-                    // Interpolated samples lie at least (far_factor - 1) half-diagonals from the zero set.
-                    if (a != b) {
-                        ++differ;
-                        REQUIRE(std::abs(b) > 0.5 * std::sqrt(3.0) * 4 * spec.spacing().maxCoeff());
+        const pcp::Mesh reference = pcp::marching_cubes(dense);
+        std::int64_t previous = dense.stats.evaluations;
+        for (int levels = 1; levels <= 3; ++levels) {
+            INFO("levels " << levels);
+            pcp::SdfGridOptions opts = with_band(pcp::NarrowBand::Dense, 4);
+            opts.far_factor = 2.0;
+            opts.far_levels = levels;
+            const pcp::SdfGrid far = pcp::evaluate_sdf_grid(batch(f), spec, opts);
+            CHECK(far.num_blocks() == dense.num_blocks());
+            CHECK(far.stats.interpolated_blocks > far.num_blocks() / 3);
+            CHECK(far.stats.coarse_evaluations == 17 * 17 * 17);  // the corners of 16 x 16 x 16 blocks
+            // The blocks and their halves each save at least a quarter of the evaluations of the
+            // level before; 1-cell cells have no samples but their corners, so they save nothing.
+            if (levels < 3)
+                CHECK(far.stats.evaluations < previous * 3 / 4);
+            else
+                CHECK(far.stats.evaluations == previous);
+            CHECK(far.stats.evaluations + far.stats.interpolated_samples == dense.stats.evaluations);
+            previous = far.stats.evaluations;
+            // An interpolated sample lies at least (far_factor - 1) half-diagonals of its cell from
+            // the zero set; the smallest cell that can be far at this level has 4 / 2^(levels - 1) cells.
+            const double half_diagonal = 0.5 * std::sqrt(3.0) * (4 >> (levels - 1)) * spec.spacing().maxCoeff();
+            std::int64_t differ = 0;
+            for (int k = 0; k <= 61; ++k)
+                for (int j = 0; j <= 61; ++j)
+                    for (int i = 0; i <= 61; ++i) {
+                        const float a = dense.value(i, j, k), b = far.value(i, j, k);
+                        REQUIRE(std::isfinite(b));
+                        REQUIRE((a > 0) == (b > 0));
+                        if (a != b) {
+                            ++differ;
+                            REQUIRE(std::abs(b) > half_diagonal);
+                        }
                     }
-                }
-        CHECK(differ > 0);
-        require_same_mesh(pcp::marching_cubes(far), pcp::marching_cubes(dense));
+            CHECK(differ > 0);
+            require_same_mesh(pcp::marching_cubes(far), reference);
+        }
     }
     pcp::SdfGridOptions bad = with_band(pcp::NarrowBand::Dense, 4);
     bad.far_factor = -1;
+    CHECK_THROWS_AS(pcp::evaluate_sdf_grid(batch(shapes[0].second), cube_grid(8), bad), pcp::Error);
+    bad.far_factor = 2;
+    bad.far_levels = 4;  // 4 cells cannot be halved three times
+    CHECK_THROWS_AS(pcp::evaluate_sdf_grid(batch(shapes[0].second), cube_grid(8), bad), pcp::Error);
+    bad.far_levels = 0;
     CHECK_THROWS_AS(pcp::evaluate_sdf_grid(batch(shapes[0].second), cube_grid(8), bad), pcp::Error);
 }
 

@@ -63,9 +63,18 @@ TEST_CASE("sign repair: a negative pocket away from the data is flipped and leav
     const ScalarSdf pocket = sphere_sdf({0.44, 0, 0}, 0.1);  // 0.04 from the sphere, no data on it
     const pcp::SdfBatchFn field = batch([&](const Eigen::Vector3d& p) { return std::min(sphere(p), pocket(p)); });
     const pcp::PointsF points = sphere_points(4000, 0.3, Eigen::Vector3d::Zero(), 1);
-    const pcp::SignRepair repair(field, kBox, pcp::KdTree(points));
+    const pcp::KdTree tree(points);
+    const pcp::SignRepair repair(field, kBox, tree);
 
-    CHECK(repair.stats().evaluations == 65LL * 65 * 65);
+    // The coarse grid's far cells interpolated (SignRepairOptions::far_factor): the same repair as
+    // from every sample evaluated, for a fraction of the evaluations.
+    CHECK(repair.stats().evaluations < 65LL * 65 * 65 / 2);
+    pcp::SignRepairOptions every;
+    every.far_factor = 0;
+    const pcp::SignRepair full(field, kBox, tree, every);
+    CHECK(full.stats().evaluations == 65LL * 65 * 65);
+    CHECK(full.stats().flipped_components == repair.stats().flipped_components);
+    CHECK(full.stats().flipped_samples == repair.stats().flipped_samples);
     CHECK(repair.stats().flipped_components == 1);
     CHECK(repair.stats().flipped_samples > 0);
     CHECK(value_at(field, repair, {0.44f, 0, 0}) > 0);   // the pocket's centre is now outside

@@ -70,6 +70,12 @@ struct SdfGridOptions {
     /// (far_factor - 1) * half-diagonal for a 1-Lipschitz field, but only the blocks near the
     /// zero set cost evaluations. 0 = evaluate every sample (the reference).
     double far_factor = 0.0;
+    /// Dense with far_factor: levels of the refinement. 1 = blocks only (a block that is not far
+    /// is evaluated whole); each further level splits the cells that are not far into their 8
+    /// halves and tests those the same way (their corners evaluated), so that at 3 levels of 8-cell
+    /// blocks only the 2-cell cells near the zero set are evaluated whole. block_cells must be
+    /// divisible by 2^(far_levels - 1).
+    int far_levels = 1;
     ProgressCallback progress;     ///< stage "sdf-grid", step/total in SDF evaluations; false = cancel (pcp::Error)
 };
 
@@ -78,6 +84,7 @@ struct SdfGridStats {
     std::int64_t evaluations = 0;         ///< SDF values computed in total (coarse + blocks)
     std::int64_t coarse_evaluations = 0;  ///< of which octree node centres (Coarse band) or block corners (far_factor)
     std::int64_t interpolated_blocks = 0; ///< Dense with far_factor: blocks filled from their corners
+    std::int64_t interpolated_samples = 0; ///< Dense with far_factor: samples filled from the corners of a far cell
     std::int64_t grown_blocks = 0;        ///< blocks added by the growth pass
     int growth_rounds = 0;                ///< growth passes that added blocks
 };

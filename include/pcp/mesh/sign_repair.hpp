@@ -57,6 +57,11 @@ struct SignRepairOptions {
     /// 0 = off. Measured in docs/BENCHMARKS.md, "Visibility labels" (abc_00010045, seed 2: a closed
     /// box of membranes, L2-CD x 100 0.319, becomes the open part, 0.027).
     int min_label_votes = 4;
+    /// The coarse grid's cells far from the zero set are interpolated from their corners, not
+    /// evaluated (SdfGridOptions::far_factor, far_levels): only signs are used here, and those the
+    /// certification keeps. 0 = evaluate every sample.
+    double far_factor = 2.0;
+    int far_levels = 3;
 };
 
 struct SignRepairStats {
