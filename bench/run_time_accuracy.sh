@@ -9,8 +9,9 @@
 #
 # Usage: bench/run_time_accuracy.sh OUT [CASE...]  (default cases: abc_00010074 bunny gargoyle)
 # Environment: BIN (default <repo>/build/bin), MANIFEST (default <repo>/../shared/data/MANIFEST.tsv),
-# VARIANTS (newline-separated "NAME:ARGS"; default: fast, default at 750 / 1500 / 3000 steps, and
-# default with the stop rule).
+# VARIANTS (newline-separated "NAME:ARGS"; default: fast; default at 3000 and its 6000 steps of 500
+# queries, at 12000 steps of 250, and with the stop rule; the earlier default, width 256 at
+# 3000 x 2000).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 repo=$(cd "$here/.." && pwd)
@@ -23,10 +24,11 @@ shift
 cases=("$@")
 [ ${#cases[@]} -gt 0 ] || cases=(abc_00010074 bunny gargoyle)
 default_variants="fast:--preset fast
-default-750:--preset default --steps 750 --stop-rule off
-default-1500:--preset default --steps 1500 --stop-rule off
 default-3000:--preset default --steps 3000 --stop-rule off
-default-stop:--preset default --steps 3000 --stop-rule on"
+default:--preset default --stop-rule off
+default-12000x250:--preset default --steps 12000 --batch 250 --stop-rule off
+default-stop:--preset default --stop-rule on
+earlier-default:--preset default --width 256 --steps 3000 --batch 2000 --stop-rule off"
 variants=${VARIANTS:-$default_variants}
 mkdir -p "$out"
 wall() { awk '/^WALL /{print $2}' "$1"; }

@@ -14,15 +14,15 @@ ReconstructOptions ReconstructOptions::preset(const std::string& name) {
         return o;
     }
     if (name == "default") {
-        // The fast preset's self-prior and query-network schedule, with a query network twice as
-        // wide, twice the steps and the paper's 128 cells. Measured against fast (L2-CD x 100 / NC):
-        // abc_00010098 0.055 / 0.678 -> 0.045 / 0.699 (Poisson 0.051 / 0.634), abc_00016513 0.045 /
-        // 0.795 -> 0.050 / 0.858, at about 3 x the time; the earlier default (self-prior width 256,
-        // 40 epochs; 6000 steps) took 19 min on the bunny for 0.091 against fast's 0.108
-        // (docs/BENCHMARKS.md).
+        // The fast preset's prior and query network (width 128) with four times its steps on a
+        // quarter of its queries per step (6000 x 500), and the paper's 128 cells. Chosen by time
+        // to accuracy (docs/BENCHMARKS.md, "More steps on fewer queries"): against the earlier
+        // default (width 256, 3000 x 2000) in a third of the time, L2-CD x 100 on the bunny 0.0093
+        // -> 0.0083, abc_00010071 0.032 -> 0.028, abc_00011084 0.049 -> 0.045, abc_00016513 0.036
+        // -> 0.040; width 128 at 1500 x 2000 (fast's schedule) tore abc_00016513's bore (0.197).
         o = preset("fast");
-        o.fit.width = 256;
-        o.fit.steps = 3000;
+        o.fit.steps = 6000;
+        o.fit.queries_per_step = 500;
         o.resolution = 128;
         return o;
     }
