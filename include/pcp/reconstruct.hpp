@@ -72,7 +72,9 @@ struct ReconstructOptions {
     double thin_offset = 0.002;
     /// Narrow-band settings. When the fills need the dense grid, the blocks whose corners certify
     /// that they are far from the zero set are interpolated, not evaluated (far_factor 2, the
-    /// octree band's factor; docs/BENCHMARKS.md, "The dense grid from the blocks near the surface").
+    /// octree band's factor; docs/BENCHMARKS.md, "The dense grid from the blocks near the surface"),
+    /// and the others are split down to 2-cell cells the same way (far_levels 3; "The dense grid
+    /// refined down to 2-cell cells").
     SdfGridOptions grid = [] {
         SdfGridOptions g;
         g.far_factor = 2.0;
