@@ -248,6 +248,9 @@ int main(int argc, char** argv) {
         options.add_options("Query network (stage 2)")
             ("steps", "Query-network steps", cxxopts::value<long>()->default_value(std::to_string(d.fit.steps)))
             ("batch", "Queries per step", cxxopts::value<int>()->default_value(std::to_string(d.fit.queries_per_step)))
+            ("batch-parts", "Split each step's batch into this many parts, one thread each (0 = one per thread; 1 = "
+                            "the whole batch, its products split over the threads); speed only",
+             cxxopts::value<int>()->default_value(std::to_string(d.fit.batch_parts)))
             ("stop-rule", "on | off: stop the query network when its loss has levelled off (then a cooldown), "
                           "with --steps as the cap; off: exactly --steps steps",
              cxxopts::value<std::string>()->default_value(d.fit.stop.enabled ? "on" : "off"))
@@ -373,6 +376,11 @@ int main(int argc, char** argv) {
         }
         if (args.count("steps")) o.fit.steps = args["steps"].as<long>();
         if (args.count("batch")) o.fit.queries_per_step = args["batch"].as<int>();
+        if (args.count("batch-parts")) {
+            o.fit.batch_parts = args["batch-parts"].as<int>();
+            if (o.fit.batch_parts < 0)
+                throw pcp::cli::UsageError("--batch-parts must be >= 0 (got " + std::to_string(o.fit.batch_parts) + ")");
+        }
         if (args.count("lr")) o.fit.schedule.learning_rate = args["lr"].as<double>();
         if (args.count("width")) o.fit.width = args["width"].as<int>();
         try {

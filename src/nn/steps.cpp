@@ -5,6 +5,10 @@
 #include "pcp/core/error.hpp"
 #include "pcp/nn/pull_loss.hpp"
 
+#include <omp.h>
+
+#include <algorithm>
+#include <exception>
 #include <utility>
 
 namespace pcp::nn {
@@ -288,7 +292,60 @@ Stage2Trainer<S>::Stage2Trainer(BranchMlp<S> qn, BranchMlp<S> d, int max_queries
       adam_decoder(cfg.train_decoder ? decoder.layout.size() : 0), adam_code(code.size()),
       options(o), workspace(query_net.shape, decoder.shape, max_queries, cfg),
       grad_query(query_net.layout.size()),
-      grad_decoder(cfg.train_decoder ? decoder.layout.size() : 0), grad_code(code.size()) {}
+      grad_decoder(cfg.train_decoder ? decoder.layout.size() : 0), grad_code(code.size()),
+      max_queries_(max_queries) {}
+
+template <class S>
+int Stage2Trainer<S>::parts_for(Eigen::Index n) const {
+    if (!config.is_method() || workspace.guided > 0 || n < 2) return 1;
+    const Eigen::Index want = batch_parts > 0 ? Eigen::Index(batch_parts)
+                                              : std::min<Eigen::Index>(Eigen::nbThreads(), n / kMinPartQueries);
+    return int(std::clamp<Eigen::Index>(want, 1, n));
+}
+
+template <class S>
+double Stage2Trainer<S>::split_loss_and_grad(const CMatRef<S>& q_g, const CMatRef<S>& t,
+                                             const CMatRef<S>& codes, int parts) {
+    const Eigen::Index n = q_g.cols();
+    // Part p holds columns [n p / P, n (p + 1) / P): at most ceil(n / P) <= ceil(max / P) of them.
+    const int capacity = int((std::max<Eigen::Index>(n, max_queries_) + parts - 1) / parts);
+    if (int(part_workspaces_.size()) < parts || part_workspaces_.front().dL_ds.size() < capacity) {
+        part_workspaces_.clear();
+        part_grads_.clear();
+        for (int p = 0; p < parts; ++p) {
+            part_workspaces_.emplace_back(query_net.shape, decoder.shape, capacity, config);
+            part_grads_.emplace_back(query_net.layout.size());
+        }
+        part_losses_.assign(std::size_t(parts), 0.0);
+    }
+    std::exception_ptr error;
+#pragma omp parallel for schedule(static, 1) num_threads(std::min(parts, std::max(1, Eigen::nbThreads())))
+    for (int p = 0; p < parts; ++p) {
+        const Eigen::Index lo = n * p / parts, len = n * (p + 1) / parts - lo;
+        try {
+            const CMatRef<S> part_codes = codes.cols() == 0 ? CMatRef<S>(codes) : CMatRef<S>(codes.middleCols(lo, len));
+            part_losses_[std::size_t(p)] = part_workspaces_[std::size_t(p)].loss_and_grad(
+                query_net, decoder, q_g.middleCols(lo, len), t.middleCols(lo, len), part_codes,
+                part_grads_[std::size_t(p)]);
+        } catch (...) {
+#pragma omp critical(pcp_stage2_parts_error)
+            if (!error) error = std::current_exception();
+        }
+    }
+    if (error) std::rethrow_exception(error);
+    // Each part's loss and gradient are means over its queries: weighted by its share, in part order.
+    double L = 0;
+    for (int p = 0; p < parts; ++p) {
+        const Eigen::Index lo = n * p / parts, len = n * (p + 1) / parts - lo;
+        const S w = S(double(len) / double(n));
+        L += double(w) * part_losses_[std::size_t(p)];
+        if (p == 0)
+            grad_query = w * part_grads_[0];
+        else
+            grad_query += w * part_grads_[std::size_t(p)];
+    }
+    return L;
+}
 
 template <class S>
 double Stage2Trainer<S>::step(const CMatRef<S>& q_g, const CMatRef<S>& t,
@@ -303,7 +360,9 @@ double Stage2Trainer<S>::step(const CMatRef<S>& q_g, const CMatRef<S>& t, const 
                               const CMatRef<S>& cond) {
     double L;
     if (config.is_method()) {  // the method's path, unchanged
-        L = workspace.loss_and_grad(query_net, decoder, q_g, t, codes, grad_query);
+        const int parts = parts_for(q_g.cols());
+        L = parts > 1 ? split_loss_and_grad(q_g, t, codes, parts)
+                      : workspace.loss_and_grad(query_net, decoder, q_g, t, codes, grad_query);
         last_grad_norm = clip_grad_norm<S>({&grad_query}, options.clip_norm);
     } else {
         L = workspace.loss_and_grad(query_net, decoder, q_g, t, codes, cond, grad_query,

@@ -206,6 +206,7 @@ void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_
     m.num_codes = K > 1 ? K : 0;
     const TrainingSchedule& sched = opts.schedule;
     PCP_CHECK(opts.queries_per_step >= 1, "query fitting: queries_per_step must be >= 1");
+    PCP_CHECK(opts.batch_parts >= 0, "query fitting: batch_parts must be >= 0 (0 = one per thread)");
     PCP_CHECK(opts.width >= 1 && opts.depth >= 1, "query fitting: network sizes must be >= 1");
     PCP_CHECK(K == 1 || (opts.ablation == QueryAblation::None && !opts.sign_guide.enabled),
               "query fitting of " << K << " clouds with one-hot codes: only the method itself (ablation none, no sign guide)");
@@ -269,6 +270,7 @@ void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_
     m.trainer = std::make_unique<nn::Stage2Trainer<float>>(query_net, decoder, opts.queries_per_step + m.guided,
                                                            detail::make_optim(sched, opts.steps), m.config);
     m.trainer->workspace.guide_weight = static_cast<float>(opts.sign_guide.weight);
+    m.trainer->batch_parts = opts.batch_parts;
     m.stop.end = opts.steps;
     if (opts.stop.enabled) {
         const StopRule& rule = opts.stop;

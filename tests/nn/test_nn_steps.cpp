@@ -429,3 +429,67 @@ TEST_CASE("nn: the stage-2 ablation steps allocate nothing after the first eithe
     }
     Eigen::setNbThreads(threads);
 }
+
+TEST_CASE("nn: the stage-2 step in batch parts takes the whole batch's loss, gradient and update", "[nn]") {
+    // Double precision: the parts' query-weighted means equal the whole batch's up to rounding.
+    Rng rng(41, 0);
+    using MatD = Mat<double>;
+    BranchMlp<double> F(decoder_shape(kC, kH, kL));
+    init_decoder_geometric(F, rng);
+    const int N = 37;  // ragged parts: 37 = 18 + 19, 12 + 12 + 13, 9 + 9 + 9 + 10, ...
+    MatD q(3, N), t(3, N), codes = MatD::Zero(3, N);
+    for (int j = 0; j < N; ++j) {
+        for (int i = 0; i < 3; ++i) t(i, j) = rng.normal(0.0, 0.3);
+        for (int i = 0; i < 3; ++i) q(i, j) = t(i, j) + rng.normal(0.0, 0.03);
+        codes(Eigen::Index(rng.below(3)), j) = 1.0;
+    }
+    OptimOptions o;
+    o.lr.lr = 1e-3;
+    o.clip_norm = 1.0;
+    for (const int num_codes : {0, 3}) {
+        BranchMlp<double> Q(query_net_shape(kC, kH, kL, num_codes));
+        init_query_net(Q, rng, true);
+        for (Eigen::Index i = 0; i < Q.params.size(); ++i) Q.params(i) += rng.normal(0.0, 0.02);  // dq != 0
+        const MatD c = num_codes > 0 ? codes : MatD();
+        auto run = [&](int parts) {
+            Stage2Trainer<double> tr(Q, F, N, o);
+            tr.batch_parts = parts;
+            CHECK(tr.parts_for(N) == parts);
+            std::vector<double> losses;
+            for (int s = 0; s < 3; ++s) losses.push_back(tr.step(q, t, c));
+            return std::make_pair(losses, Eigen::VectorXd(tr.query_net.params));
+        };
+        const auto whole = run(1);
+        for (int parts : {2, 3, 4, N}) {
+            const auto split = run(parts);
+            INFO(num_codes << " codes, " << parts << " parts");
+            for (int s = 0; s < 3; ++s) CHECK(split.first[s] == Approx(whole.first[s]).epsilon(1e-12));
+            CHECK((split.second - whole.second).norm() <= 1e-12 * whole.second.norm());
+            CHECK((split.second - Q.params).norm() > 1e-6);  // the steps moved Q
+        }
+    }
+}
+
+TEST_CASE("nn: batch parts: one per thread, at most one per 128 queries, one for ablations and guided columns", "[nn]") {
+    Rng rng(43, 0);
+    BranchMlp<float> F(decoder_shape(kC, kH, kL));
+    init_decoder_geometric(F, rng);
+    BranchMlp<float> Q(query_net_shape(kC, kH, kL));
+    init_query_net(Q, rng, true);
+    const int threads = Eigen::nbThreads();
+    Eigen::setNbThreads(4);
+    Stage2Trainer<float> tr(Q, F, 1000);
+    CHECK(tr.parts_for(1000) == 4);
+    CHECK(tr.parts_for(300) == 2);
+    CHECK(tr.parts_for(100) == 1);
+    tr.workspace.guided = 10;
+    CHECK(tr.parts_for(1000) == 1);
+    tr.workspace.guided = 0;
+    Stage2Config cfg;
+    cfg.train_decoder = true;
+    Stage2Trainer<float> ablation(Q, F, 1000, {}, cfg);
+    CHECK(ablation.parts_for(1000) == 1);
+    Eigen::setNbThreads(1);
+    CHECK(tr.parts_for(1000) == 1);
+    Eigen::setNbThreads(threads);
+}

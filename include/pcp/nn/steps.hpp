@@ -24,6 +24,7 @@
 #include "pcp/nn/networks.hpp"
 
 #include <cstdint>
+#include <vector>
 
 namespace pcp::nn {
 
@@ -230,6 +231,20 @@ public:
     double step(const CMatRef<S>& q_g, const CMatRef<S>& t, const CMatRef<S>& codes,
                 const CMatRef<S>& cond);
 
+    /// The batch parts of the method's step (not in the paper; ours, for speed): with P > 1 parts
+    /// each part's loss and gradient are computed on one thread in its own workspace, its
+    /// products sequential, and the step takes their query-weighted means, the whole batch's
+    /// loss and gradient up to rounding. At the default preset's sizes (width 128, 500 queries)
+    /// small products split over threads run at about half the SGEMM rate; parts keep each thread
+    /// on its own products (docs/BENCHMARKS.md, "The stage-2 step in batch parts").
+    /// 0: one part per thread (Eigen::nbThreads(), as the products), at most one per kMinPartQueries queries; 1: the whole
+    /// batch in `workspace` (its products split over the threads). Ablations and guided
+    /// columns always take one part. The rounding therefore depends on the thread count.
+    int batch_parts = 0;
+    static constexpr int kMinPartQueries = 128;
+    /// The parts a step on n queries takes (see batch_parts).
+    int parts_for(Eigen::Index n) const;
+
     Stage2Config config;
     BranchMlp<S> query_net;
     BranchMlp<S> decoder;   ///< frozen unless config.train_decoder
@@ -240,6 +255,13 @@ public:
     double last_grad_norm = 0;
     Stage2Workspace<S> workspace;
     Vec<S> grad_query, grad_decoder, grad_code;
+
+private:
+    double split_loss_and_grad(const CMatRef<S>& q_g, const CMatRef<S>& t, const CMatRef<S>& codes, int parts);
+    int max_queries_;
+    std::vector<Stage2Workspace<S>> part_workspaces_;  ///< sized on the first split step
+    std::vector<Vec<S>> part_grads_;
+    std::vector<double> part_losses_;
 };
 
 }  // namespace pcp::nn

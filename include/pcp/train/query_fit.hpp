@@ -86,6 +86,10 @@ struct QueryFitOptions {
     int width = 512;                 ///< Q's width (paper: 512)
     int depth = 8;                   ///< Q's hidden layers (paper: 8)
     int queries_per_step = 400;      ///< batch (release: 400)
+    /// Not in the paper (speed only): the step's batch in this many parts, one thread each
+    /// (nn::Stage2Trainer::batch_parts; 0 = one per thread, 1 = the whole batch with its products
+    /// split over the threads). The same loss and gradient up to rounding.
+    int batch_parts = 0;
     std::int64_t steps = 100000;     ///< (release: about 100,000)
     /// Adam (release: lr 1e-4, constant), seed, progress (stage "query-net"), checkpoints, resume.
     TrainingSchedule schedule = TrainingSchedule::every(100, 2000);
