@@ -256,6 +256,8 @@ int main(int argc, char** argv) {
              cxxopts::value<std::string>()->default_value(d.fit.stop.enabled ? "on" : "off"))
             ("stop-tolerance", "The stop rule's plateau: relative decrease of the mean loss between two windows of "
                                "200 steps below this", cxxopts::value<double>()->default_value(fmt(d.fit.stop.tolerance)))
+            ("stop-min-steps", "The stop rule looks for the plateau only after this many steps",
+             cxxopts::value<long>()->default_value(std::to_string(d.fit.stop.min_steps)))
             ("lr", "Learning rate", cxxopts::value<double>()->default_value(fmt(d.fit.schedule.learning_rate)))
             ("width", "Query-network width", cxxopts::value<int>()->default_value(std::to_string(d.fit.width)))
             ("ablation", "The paper's stage-2 ablations: none (the method) | no-shift | direct | free-code | pointnet-code | "
@@ -442,6 +444,8 @@ int main(int argc, char** argv) {
         if (args.count("stop-tolerance")) o.fit.stop.tolerance = args["stop-tolerance"].as<double>();
         if (!(o.fit.stop.tolerance >= 0.0 && o.fit.stop.tolerance < 1.0))
             throw pcp::cli::UsageError("--stop-tolerance must be in [0, 1)");
+        if (args.count("stop-min-steps")) o.fit.stop.min_steps = args["stop-min-steps"].as<long>();
+        if (o.fit.stop.min_steps < 0) throw pcp::cli::UsageError("--stop-min-steps must be >= 0");
         if (args.count("sign-repair")) {
             const std::string v = args["sign-repair"].as<std::string>();
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--sign-repair must be on or off (got '" + v + "')");

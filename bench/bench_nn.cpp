@@ -27,6 +27,8 @@
 // the rounding of both operands to bf16).
 // Last, where bf16 is available: one stage-1 and one stage-2 step from the same state in fp32 and
 // in bf16, and how far apart their gradients are (relative L2 difference, cosine).
+// Then the default preset's stage-2 step (H = 128, L = 6, C = 128; batch 500 and 2000), the whole
+// batch against the batch in parts (one per thread), next to the SGEMM rate at the same N.
 // Usage: bench_nn [--quick] [--gemm eigen|blas|bf16] [--gradients]
 //   --quick: batch 400 and 2000 only; --gemm: only that configuration (default: every one built);
 //   --gradients: only the bf16-against-fp32 gradient table
@@ -243,6 +245,42 @@ int main(int argc, char** argv) {
             }
         }
 
+
+        // The default preset's stage 2 (width 128, depth 6, C = 128: the built-in prior and its
+        // query network; 500 queries a step), the whole batch (products split over the threads)
+        // against the batch in parts (one per thread, Stage2Trainer::batch_parts), next to the SGEMM
+        // rate at the same N.
+        constexpr int kHd = 128, kLd = 6, kCd = 128;
+        std::printf("\n## Stage-2 step at the default preset's sizes (H = %d, L = %d, C = %d, float)\n\n"
+                    "| threads | batch N | gemm | batch parts | ms/step | GFLOP/step | GFLOP/s | SGEMM 512 x 512 x N GFLOP/s | %% of it |\n"
+                    "| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n", kHd, kLd, kCd);
+        Rng init(4, 0);
+        BranchMlp<float> Fd(decoder_shape(kCd, kHd, kLd)), Qd(query_net_shape(kCd, kHd, kLd));
+        init_decoder_geometric(Fd, init);
+        init_query_net(Qd, init, true);
+        for (int t : threads) {
+            Eigen::setNbThreads(t);
+            for (int N : {500, 2000}) {
+                Mat<float> pts = randn(3, N, rng, 0.3);
+                Mat<float> q = pts + randn(3, N, rng, 0.03);
+                Mat<float> A = randn(kH, kH, rng, 0.05), B = randn(kH, N, rng, 1.0), C(kH, N);
+                const Mat<float> no_codes;
+                for (int k = 0; k < nb; ++k) {
+                    backends[k].apply();
+                    const double ref = gemm_flops(kH, N, kH) /
+                                       time_calls([&] { gemm<float>(C, A, B, 1.0f, 0.0f); }, 0.4, 7).seconds * 1e-9;
+                    for (int parts : {1, 0}) {
+                        Stage2Trainer<float> tr(Qd, Fd, N);
+                        tr.batch_parts = parts;
+                        const double sec = time_calls([&] { tr.step(q, pts, no_codes); }, 1.5, 3).seconds;
+                        const double fl = stage2_flops(N, kHd, kLd, kCd), gfs = fl / sec * 1e-9;
+                        std::printf("| %d | %d | %s | %d | %.2f | %.3f | %.1f | %.1f | %.0f%% |\n", t, N, backends[k].name(),
+                                    tr.parts_for(N), sec * 1e3, fl * 1e-9, gfs, ref, 100.0 * gfs / ref);
+                        std::fflush(stdout);
+                    }
+                }
+            }
+        }
     }
 
     // The same step from the same state in fp32 and in bf16: how far bf16 moves the gradient.

@@ -226,7 +226,9 @@ TEST_CASE("cli: prior source, tuning and stop-rule options: bad values exit 2 na
         {" --self-prior --prior p.pcpm x.ply", "--self-prior and --prior exclude each other"},
         {" --prior-tune-steps -1 x.ply", "--prior-tune-steps must be >= 0"},
         {" --stop-rule maybe x.ply", "--stop-rule must be on or off (got 'maybe')"},
-        {" --stop-tolerance 1.5 x.ply", "--stop-tolerance must be in [0, 1)"}};
+        {" --stop-tolerance 1.5 x.ply", "--stop-tolerance must be in [0, 1)"},
+        {" --stop-min-steps -1 x.ply", "--stop-min-steps must be >= 0"},
+        {" --batch-parts -1 x.ply", "--batch-parts must be >= 0 (got -1)"}};
     for (const auto& c : cases) {
         const RunResult r = run(bin("pcp_reconstruct") + c.first);
         INFO(c.first << " stderr: " << r.err);
