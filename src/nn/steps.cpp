@@ -292,8 +292,7 @@ Stage2Trainer<S>::Stage2Trainer(BranchMlp<S> qn, BranchMlp<S> d, int max_queries
       adam_decoder(cfg.train_decoder ? decoder.layout.size() : 0), adam_code(code.size()),
       options(o), workspace(query_net.shape, decoder.shape, max_queries, cfg),
       grad_query(query_net.layout.size()),
-      grad_decoder(cfg.train_decoder ? decoder.layout.size() : 0), grad_code(code.size()),
-      max_queries_(max_queries) {}
+      grad_decoder(cfg.train_decoder ? decoder.layout.size() : 0), grad_code(code.size()) {}
 
 template <class S>
 int Stage2Trainer<S>::parts_for(Eigen::Index n) const {
@@ -307,8 +306,10 @@ template <class S>
 double Stage2Trainer<S>::split_loss_and_grad(const CMatRef<S>& q_g, const CMatRef<S>& t,
                                              const CMatRef<S>& codes, int parts) {
     const Eigen::Index n = q_g.cols();
-    // Part p holds columns [n p / P, n (p + 1) / P): at most ceil(n / P) <= ceil(max / P) of them.
-    const int capacity = int((std::max<Eigen::Index>(n, max_queries_) + parts - 1) / parts);
+    // Part p holds columns [n p / P, n (p + 1) / P): at most ceil(n / P) <= ceil(max / P) of them
+    // (`workspace` is sized for the trainer's max_queries).
+    const auto part_start = [n, parts](int p) { return n * p / parts; };
+    const int capacity = int((std::max<Eigen::Index>(n, workspace.dL_ds.size()) + parts - 1) / parts);
     if (int(part_workspaces_.size()) < parts || part_workspaces_.front().dL_ds.size() < capacity) {
         part_workspaces_.clear();
         part_grads_.clear();
@@ -321,7 +322,7 @@ double Stage2Trainer<S>::split_loss_and_grad(const CMatRef<S>& q_g, const CMatRe
     std::exception_ptr error;
 #pragma omp parallel for schedule(static, 1) num_threads(std::min(parts, std::max(1, Eigen::nbThreads())))
     for (int p = 0; p < parts; ++p) {
-        const Eigen::Index lo = n * p / parts, len = n * (p + 1) / parts - lo;
+        const Eigen::Index lo = part_start(p), len = part_start(p + 1) - lo;
         try {
             const CMatRef<S> part_codes = codes.cols() == 0 ? CMatRef<S>(codes) : CMatRef<S>(codes.middleCols(lo, len));
             part_losses_[std::size_t(p)] = part_workspaces_[std::size_t(p)].loss_and_grad(
@@ -336,8 +337,7 @@ double Stage2Trainer<S>::split_loss_and_grad(const CMatRef<S>& q_g, const CMatRe
     // Each part's loss and gradient are means over its queries: weighted by its share, in part order.
     double L = 0;
     for (int p = 0; p < parts; ++p) {
-        const Eigen::Index lo = n * p / parts, len = n * (p + 1) / parts - lo;
-        const S w = S(double(len) / double(n));
+        const S w = S(double(part_start(p + 1) - part_start(p)) / double(n));
         L += double(w) * part_losses_[std::size_t(p)];
         if (p == 0)
             grad_query = w * part_grads_[0];
@@ -359,7 +359,7 @@ template <class S>
 double Stage2Trainer<S>::step(const CMatRef<S>& q_g, const CMatRef<S>& t, const CMatRef<S>& codes,
                               const CMatRef<S>& cond) {
     double L;
-    if (config.is_method()) {  // the method's path, unchanged
+    if (config.is_method()) {  // the method's path (in batch parts: the same loss and gradient)
         const int parts = parts_for(q_g.cols());
         L = parts > 1 ? split_loss_and_grad(q_g, t, codes, parts)
                       : workspace.loss_and_grad(query_net, decoder, q_g, t, codes, grad_query);

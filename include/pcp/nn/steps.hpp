@@ -258,7 +258,6 @@ public:
 
 private:
     double split_loss_and_grad(const CMatRef<S>& q_g, const CMatRef<S>& t, const CMatRef<S>& codes, int parts);
-    int max_queries_;
     std::vector<Stage2Workspace<S>> part_workspaces_;  ///< sized on the first split step
     std::vector<Vec<S>> part_grads_;
     std::vector<double> part_losses_;
