@@ -6,7 +6,14 @@
 #include <algorithm>
 #include <cmath>
 
+#include <omp.h>
+
 namespace pcp::nn {
+
+namespace {
+/// Below this many parameters one thread does the step (a parallel region costs more).
+constexpr Eigen::Index kAdamParallelMin = 32768;
+}  // namespace
 
 template <class S>
 void adam_step(VecRef<S> params, const CVecRef<S>& grads, AdamState<S>& st, double lr,
@@ -23,14 +30,26 @@ void adam_step(VecRef<S> params, const CVecRef<S>& grads, AdamState<S>& st, doub
     const S step_size = S(lr / bc1);
     const S inv_sqrt_bc2 = S(1.0 / std::sqrt(bc2));
     const S eps = S(o.eps);
-    S* p = params.data();
-    const S* g = grads.data();
-    S* m = st.m.data();
-    S* v = st.v.data();
-    for (Eigen::Index i = 0; i < n; ++i) {
-        m[i] = b1 * m[i] + (S(1) - b1) * g[i];
-        v[i] = b2 * v[i] + (S(1) - b2) * g[i] * g[i];
-        p[i] -= step_size * m[i] / (std::sqrt(v[i]) * inv_sqrt_bc2 + eps);
+    // In chunks that stay in L1, as Eigen array expressions (packet sqrt and division: the scalar
+    // loop's std::sqrt kept GCC from vectorising it), split over the threads for large vectors;
+    // each entry's arithmetic is the same whatever the split.
+    constexpr Eigen::Index kChunk = 2048;
+    const auto chunk = [&](Eigen::Index c) {
+        const Eigen::Index lo = c * kChunk, len = std::min(kChunk, n - lo);
+        auto m = st.m.segment(lo, len).array();
+        auto v = st.v.segment(lo, len).array();
+        const auto g = grads.segment(lo, len).array();
+        m = b1 * m + (S(1) - b1) * g;
+        v = b2 * v + (S(1) - b2) * g.square();
+        params.segment(lo, len).array() -= step_size * m / (v.sqrt() * inv_sqrt_bc2 + eps);
+    };
+    const Eigen::Index chunks = (n + kChunk - 1) / kChunk;
+    const int threads = n >= kAdamParallelMin ? std::max(1, Eigen::nbThreads()) : 1;
+    if (threads > 1) {
+#pragma omp parallel for schedule(static) num_threads(threads)
+        for (Eigen::Index c = 0; c < chunks; ++c) chunk(c);
+    } else {  // no parallel region at all: even a one-thread region allocates its team
+        for (Eigen::Index c = 0; c < chunks; ++c) chunk(c);
     }
 }
 

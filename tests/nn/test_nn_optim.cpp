@@ -72,6 +72,37 @@ TEST_CASE("nn: Adam matches a hand-computed step with bias correction", "[nn]") 
     CHECK_THROWS_AS(adam_step<double>(p, wrong, st, 0.1, o), pcp::Error);
 }
 
+TEST_CASE("nn: Adam on a large vector (chunks over the threads) matches the textbook step entry by entry", "[nn]") {
+    // More entries than one thread's share and not a multiple of the chunk: every entry, the last
+    // chunk's tail included, must get the textbook update, in float with 2 threads as in a run.
+    const Eigen::Index n = 100003;
+    Rng rng(7, 1);
+    Vec<float> p(n), g(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+        p(i) = float(rng.normal());
+        g(i) = float(rng.normal()) * (i % 5 == 0 ? 1e-3f : 1.0f);
+    }
+    AdamState<float> st(n);
+    const Vec<float> p0 = p;
+    const int threads = Eigen::nbThreads();
+    Eigen::setNbThreads(2);
+    adam_step<float>(p, g, st, 1e-3, AdamOptions{});
+    Vec<float> g2 = g.reverse();
+    const Vec<float> p1 = p;
+    adam_step<float>(p, g2, st, 1e-3, AdamOptions{});
+    Eigen::setNbThreads(threads);
+    int wrong = 0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+        const double m1 = 0.1 * g(i), v1 = 0.001 * double(g(i)) * g(i);
+        const double e1 = p0(i) - 1e-3 * (m1 / 0.1) / (std::sqrt(v1 / 0.001) + 1e-8);
+        const double m = 0.9 * m1 + 0.1 * g2(i), v = 0.999 * v1 + 0.001 * double(g2(i)) * g2(i);
+        const double e2 = p1(i) - 1e-3 * (m / (1 - 0.81)) / (std::sqrt(v / (1 - 0.999 * 0.999)) + 1e-8);
+        if (std::abs(p1(i) - e1) > 1e-6 + 1e-6 * std::abs(e1) || std::abs(p(i) - e2) > 1e-6 + 1e-6 * std::abs(e2)) ++wrong;
+    }
+    CHECK(wrong == 0);
+    CHECK(st.t == 2);
+}
+
 TEST_CASE("nn: learning-rate schedules and gradient clipping", "[nn]") {
     LrSchedule c;
     c.lr = 1e-3;

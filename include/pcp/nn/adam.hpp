@@ -1,4 +1,4 @@
-// Optimisation of a flat parameter vector: Adam with bias correction (one loop over the vector),
+// Optimisation of a flat parameter vector: Adam with bias correction (vectorised, in chunks split over the threads),
 // learning-rate schedules (constant, cosine; both with optional linear warm-up) and gradient-norm clipping over several gradient vectors at once.
 #pragma once
 
