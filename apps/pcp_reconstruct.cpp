@@ -260,6 +260,7 @@ int main(int argc, char** argv) {
              cxxopts::value<long>()->default_value(std::to_string(d.fit.stop.min_steps)))
             ("lr", "Learning rate", cxxopts::value<double>()->default_value(fmt(d.fit.schedule.learning_rate)))
             ("width", "Query-network width", cxxopts::value<int>()->default_value(std::to_string(d.fit.width)))
+            ("depth", "Query-network hidden layers", cxxopts::value<int>()->default_value(std::to_string(d.fit.depth)))
             ("ablation", "The paper's stage-2 ablations: none (the method) | no-shift | direct | free-code | pointnet-code | "
                          "no-prior | tune-prior (see include/pcp/train/query_fit.hpp)",
              cxxopts::value<std::string>()->default_value(pcp::to_string(d.fit.ablation)))
@@ -385,6 +386,7 @@ int main(int argc, char** argv) {
         }
         if (args.count("lr")) o.fit.schedule.learning_rate = args["lr"].as<double>();
         if (args.count("width")) o.fit.width = args["width"].as<int>();
+        if (args.count("depth")) o.fit.depth = args["depth"].as<int>();
         try {
             o.fit.ablation = pcp::parse_query_ablation(args["ablation"].as<std::string>());
         } catch (const pcp::Error& e) {
@@ -411,8 +413,8 @@ int main(int argc, char** argv) {
         if (args.count("thin-offset")) o.thin_offset = args["thin-offset"].as<double>();
         if (args.count("margin")) o.margin = args["margin"].as<double>();
         if (o.fit.steps < 1 || o.fit.queries_per_step < 1 || !(o.fit.schedule.learning_rate > 0) || o.fit.width < 1 ||
-            o.fit.schedule.progress_every < 1 || o.fit.schedule.checkpoint_every < 0)
-            throw pcp::cli::UsageError("steps, batch, width and learning rate must be positive");
+            o.fit.depth < 1 || o.fit.schedule.progress_every < 1 || o.fit.schedule.checkpoint_every < 0)
+            throw pcp::cli::UsageError("steps, batch, width, depth and learning rate must be positive");
         if (o.resolution < 8 || o.resolution > 2048) throw pcp::cli::UsageError("--resolution must be in [8, 2048]");
         if (!(o.margin >= 0)) throw pcp::cli::UsageError("--margin must be >= 0");
         if (args.count("denoise")) {

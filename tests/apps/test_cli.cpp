@@ -228,7 +228,8 @@ TEST_CASE("cli: prior source, tuning and stop-rule options: bad values exit 2 na
         {" --stop-rule maybe x.ply", "--stop-rule must be on or off (got 'maybe')"},
         {" --stop-tolerance 1.5 x.ply", "--stop-tolerance must be in [0, 1)"},
         {" --stop-min-steps -1 x.ply", "--stop-min-steps must be >= 0"},
-        {" --batch-parts -1 x.ply", "--batch-parts must be >= 0 (got -1)"}};
+        {" --batch-parts -1 x.ply", "--batch-parts must be >= 0 (got -1)"},
+        {" --depth 0 x.ply", "steps, batch, width, depth and learning rate must be positive"}};
     for (const auto& c : cases) {
         const RunResult r = run(bin("pcp_reconstruct") + c.first);
         INFO(c.first << " stderr: " << r.err);
