@@ -19,6 +19,27 @@ void linear_forward(MatRef<S> Z, const CMatRef<S>& A, const CMatRef<S>& W, const
 }
 
 template <class S>
+void bias_relu(MatRef<S> Z, const CMatRef<S>& b) {
+    PCP_CHECK(b.rows() == Z.rows() && b.cols() == 1,
+              "nn::bias_relu: Z is " << Z.rows() << "x" << Z.cols() << ", b " << b.rows() << "x" << b.cols());
+    // Column by column: each column is one contiguous vectorised pass (a whole-matrix replicate of
+    // b would index rows modulo the height, element by element).
+    const auto bias = b.col(0);
+    for (Eigen::Index j = 0; j < Z.cols(); ++j) Z.col(j) = (Z.col(j) + bias).cwiseMax(S(0));
+}
+
+template <class S>
+void linear_relu_forward(MatRef<S> Z, const CMatRef<S>& A, const CMatRef<S>& W, const CMatRef<S>& b) {
+    PCP_CHECK(W.rows() == Z.rows() && W.cols() == A.rows() && A.cols() == Z.cols() &&
+                  b.rows() == Z.rows() && b.cols() == 1,
+              "nn::linear_relu_forward: shapes: Z " << Z.rows() << "x" << Z.cols() << ", W " << W.rows()
+                                                    << "x" << W.cols() << ", A " << A.rows() << "x"
+                                                    << A.cols() << ", b " << b.rows() << "x" << b.cols());
+    gemm<S>(Z, W, A, S(1), S(0));
+    bias_relu<S>(Z, b);
+}
+
+template <class S>
 void relu_forward(MatRef<S> Z) {
     Z = Z.cwiseMax(S(0));
 }
@@ -91,6 +112,9 @@ void maxpool_backward(MatRef<S> dL_dA, const CVecRef<S>& dL_dout,
 #define PCP_NN_INSTANTIATE_LAYERS(S)                                                               \
     template void linear_forward<S>(MatRef<S>, const CMatRef<S>&, const CMatRef<S>&,              \
                                     const CMatRef<S>&);                                            \
+    template void linear_relu_forward<S>(MatRef<S>, const CMatRef<S>&, const CMatRef<S>&,         \
+                                         const CMatRef<S>&);                                       \
+    template void bias_relu<S>(MatRef<S>, const CMatRef<S>&);                                      \
     template void relu_forward<S>(MatRef<S>);                                                      \
     template void relu_backward<S>(MatRef<S>, const CMatRef<S>&);                                  \
     template void linear_backward_params<S>(MatRef<S>, MatRef<S>, const CMatRef<S>&,              \

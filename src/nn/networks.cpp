@@ -207,40 +207,35 @@ void branch_mlp_forward(const BranchMlp<S>& net, const CMatRef<S>& xa, const CMa
 
     // Branches: h_a = relu(W_a x_a + b_a) (H x N); h_b = relu(W_b x_b + b_b).
     auto A0a = c.a0.topRows(H).leftCols(n);
-    linear_forward<S>(A0a, xa, net.W(0), net.b(0));
-    relu_forward<S>(A0a);
+    linear_relu_forward<S>(A0a, xa, net.W(0), net.b(0));
     const int l1 = layer_hidden(sh, 1);
     const auto W1 = net.W(l1);
     if (sh.in_b > 0) {
         if (c.shared_b) {
             // One column for the whole batch; the f-half of hidden 1 becomes a bias (H x 1).
-            linear_forward<S>(c.hb_shared, xb, net.W(1), net.b(1));
-            relu_forward<S>(c.hb_shared);
+            linear_relu_forward<S>(c.hb_shared, xb, net.W(1), net.b(1));
             c.c1_shared = net.b(l1);
             gemm<S>(c.c1_shared, W1.rightCols(H), c.hb_shared, S(1), S(1));
         } else {
             auto A0b = c.a0.bottomRows(H).leftCols(n);
-            linear_forward<S>(A0b, xb, net.W(1), net.b(1));
-            relu_forward<S>(A0b);
+            linear_relu_forward<S>(A0b, xb, net.W(1), net.b(1));
         }
     }
     // Hidden 1: z_1 = W_1 [h_a; h_b] + b_1.
     auto Z1 = c.a[0].leftCols(n);
     if (sh.in_b == 0) {
-        linear_forward<S>(Z1, A0a, W1, net.b(l1));
+        linear_relu_forward<S>(Z1, A0a, W1, net.b(l1));
     } else if (c.shared_b) {
         gemm<S>(Z1, W1.leftCols(H), A0a, S(1), S(0));  // q-half only: H x H per query
-        Z1.colwise() += c.c1_shared.col(0);
+        bias_relu<S>(Z1, c.c1_shared);
     } else {
-        linear_forward<S>(Z1, c.a0.leftCols(n), W1, net.b(l1));
+        linear_relu_forward<S>(Z1, c.a0.leftCols(n), W1, net.b(l1));
     }
-    relu_forward<S>(Z1);
     // Hidden 2..L.
     for (int k = 2; k <= sh.depth; ++k) {
         auto Z = c.a[k - 1].leftCols(n);
-        linear_forward<S>(Z, c.a[k - 2].leftCols(n), net.W(layer_hidden(sh, k)),
-                          net.b(layer_hidden(sh, k)));
-        relu_forward<S>(Z);
+        linear_relu_forward<S>(Z, c.a[k - 2].leftCols(n), net.W(layer_hidden(sh, k)),
+                               net.b(layer_hidden(sh, k)));
     }
     // Head (linear).
     linear_forward<S>(c.out.leftCols(n), c.a[sh.depth - 1].leftCols(n), net.W(layer_head(sh)),
@@ -544,11 +539,7 @@ void pointnet_forward(const PointNet<S>& net, const CMatRef<S>& points, PointNet
     const int P = net.num_point_layers();
     for (int k = 0; k < P; ++k) {
         auto Z = c.pa[k].leftCols(m);
-        if (k == 0)
-            linear_forward<S>(Z, points, net.W(0), net.b(0));
-        else
-            linear_forward<S>(Z, c.pa[k - 1].leftCols(m), net.W(k), net.b(k));
-        relu_forward<S>(Z);
+        linear_relu_forward<S>(Z, k == 0 ? points : CMatRef<S>(c.pa[k - 1].leftCols(m)), net.W(k), net.b(k));
     }
     maxpool_forward<S>(c.pooled.col(0), c.argmax, c.pa[P - 1].leftCols(m));
     const int J = net.num_head_layers();

@@ -97,6 +97,33 @@ TEST_CASE("nn: gemm matches the three-loop reference for every transpose on stri
     CHECK_THROWS_WITH(gemm<double>(C, A, B, 1.0, 0.0), Catch::Contains("shape mismatch"));
 }
 
+TEST_CASE("nn: the fused dense + ReLU layer gives the two calls' numbers", "[nn]") {
+    Rng rng(4, 0);
+    const int D = 7, H = 9, N = 13;
+    const MatrixXd W = randn(H, D, rng), b = randn(H, 1, rng, 0.5), A = randn(D, N, rng);
+    MatrixXd two(H, N);
+    linear_forward<double>(two, A, W, b);
+    relu_forward<double>(two);
+    REQUIRE((two.array() == 0.0).any());  // some units are cut, some pass
+    REQUIRE((two.array() > 0.0).any());
+    // Into a block of a taller, wider matrix (outer stride != rows), as the caches use it.
+    MatrixXd big = MatrixXd::Constant(H + 3, N + 2, 7.0);
+    linear_relu_forward<double>(big.topRows(H).leftCols(N), A, W, b);
+    CHECK(big.topRows(H).leftCols(N) == two);
+    CHECK((big.bottomRows(3).array() == 7.0).all());
+    CHECK((big.rightCols(2).array() == 7.0).all());
+    // In float too (the pipeline's type), bit for bit.
+    const Eigen::MatrixXf Wf = W.cast<float>(), bf = b.cast<float>(), Af = A.cast<float>();
+    Eigen::MatrixXf twof(H, N), fused(H, N);
+    linear_forward<float>(twof, Af, Wf, bf);
+    relu_forward<float>(twof);
+    linear_relu_forward<float>(fused, Af, Wf, bf);
+    CHECK(fused == twof);
+    MatrixXd bad(H + 1, 1);
+    CHECK_THROWS_WITH(bias_relu<double>(two, bad), Catch::Contains("nn::bias_relu"));
+    CHECK_THROWS_WITH(linear_relu_forward<double>(two, A, W, bad), Catch::Contains("nn::linear_relu_forward"));
+}
+
 TEST_CASE("nn: dense, ReLU and max-pool layers match finite differences", "[nn]") {
     Rng rng(2, 0);
     const int D = 5, H = 6, N = 4;

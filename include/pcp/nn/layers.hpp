@@ -19,6 +19,16 @@ namespace pcp::nn {
 template <class S>
 void linear_forward(MatRef<S> Z, const CMatRef<S>& A, const CMatRef<S>& W, const CMatRef<S>& b);
 
+/// Z = max(W * A + b, 0): linear_forward and relu_forward in one pass over Z after the product
+/// (the bias and the ReLU fused; the same numbers as the two calls).
+template <class S>
+void linear_relu_forward(MatRef<S> Z, const CMatRef<S>& A, const CMatRef<S>& W, const CMatRef<S>& b);
+
+/// In place Z = max(Z + b, 0), b added to every column: the bias and ReLU of a layer whose product
+/// is already in Z, in one pass.
+template <class S>
+void bias_relu(MatRef<S> Z, const CMatRef<S>& b);
+
 /// In place a = max(z, 0). The mask m = [z > 0] is recovered later as [a > 0].
 /// @param[in,out] Z  H x N, pre-activations in, activations out.
 template <class S>
