@@ -37,6 +37,7 @@
 #include "pcp/nn/steps.hpp"
 
 #include <Eigen/Core>
+#include <omp.h>
 
 #include <algorithm>
 #include <chrono>
@@ -281,6 +282,44 @@ int main(int argc, char** argv) {
                 }
             }
         }
+    }
+
+    // The grid's evaluations at the default preset's sizes: F(q + dq, f') forward only, each thread
+    // running its own batches in turn (as QueryNetFitter::sdf does), by the batch size.
+    {
+        constexpr int kHd = 128, kLd = 6, kCd = 128, kPoints = 65536;
+        const double flops_per_point = 2.0 * (3.0 * kHd + double(kLd) * kHd * kHd + double(kHd) * (3 + kCd)) +
+                                       2.0 * (3.0 * kHd + double(kCd) * kHd + 2.0 * kHd * kHd + double(kLd - 1) * kHd * kHd + kHd);
+        std::printf("\n## SDF evaluation at the default preset's sizes (H = %d, L = %d, C = %d, float; %d points, "
+                    "one batch per thread at a time)\n\n"
+                    "| threads | batch | gemm | points/s | GFLOP/s |\n| --- | --- | --- | --- | --- |\n", kHd, kLd, kCd, kPoints);
+        Rng init(5, 0);
+        BranchMlp<float> Fd(decoder_shape(kCd, kHd, kLd)), Qd(query_net_shape(kCd, kHd, kLd));
+        init_decoder_geometric(Fd, init);
+        init_query_net(Qd, init, true);
+        const Mat<float> pts = randn(3, kPoints, rng, 0.3);
+        const Mat<float> no_codes;
+        for (int t : threads) {
+            for (int k = 0; k < nb; ++k) {
+                backends[k].apply();
+                for (int batch : {256, 512, 1024, 4096}) {
+                    std::vector<GlobalSdfCache<float>> caches;
+                    for (int i = 0; i < t; ++i) caches.emplace_back(Qd.shape, Fd.shape, batch);
+                    const int n_batches = kPoints / batch;
+                    const double sec = time_calls([&] {
+                        Eigen::setNbThreads(1);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(t)
+                        for (int b = 0; b < n_batches; ++b)
+                            global_sdf_eval<float>(Qd, Fd, pts.middleCols(Eigen::Index(b) * batch, batch), no_codes,
+                                                   caches[std::size_t(omp_get_thread_num())]);
+                    }, 1.0, 3).seconds;
+                    std::printf("| %d | %d | %s | %.0f | %.1f |\n", t, batch, backends[k].name(), kPoints / sec,
+                                kPoints * flops_per_point / sec * 1e-9);
+                    std::fflush(stdout);
+                }
+            }
+        }
+        Eigen::setNbThreads(threads.back());
     }
 
     // The same step from the same state in fp32 and in bf16: how far bf16 moves the gradient.
