@@ -85,7 +85,7 @@ struct ReconstructOptions {
     SignRepairOptions sign_repair;   ///< flip regions whose sign the data does not support (not in the paper)
     CavityFillOptions cavity_fill;   ///< fill enclosed positive pockets (hollow shells of noisy scans) on a dense grid (not in the paper)
     FineRepairOptions fine_repair;   ///< the sign repair's rule on the fine grid, for thin membranes (not in the paper)
-    TunnelFillOptions tunnel_fill;   ///< plug passages through the solid two cells across or less, on a dense grid (not in the paper)
+    TunnelFillOptions tunnel_fill;   ///< plug passages through the solid two cells across or less, and cut solid bridges as thin, on a dense grid (not in the paper)
     ShellCentreOptions shell_centre; ///< noisy clouds: the surface in the middle of the noise band's shell, not on its outer wall (not in the paper)
     SurfaceFitOptions surface_fit;   ///< support filter and fit of the mesh onto the data (not in the paper)
     SmoothOptions smoothing;         ///< bilateral smoothing of the final mesh, of noisy clouds by default (not in the paper)
@@ -122,6 +122,7 @@ struct ReconstructReport {
     FineRepairStats fine_repair;     ///< what the fine sign repair flipped
     CavityFillStats cavity_fill;     ///< what the cavity fill negated
     TunnelFillStats tunnel_fill;     ///< what the tunnel fill plugged
+    BridgeCutStats bridge_cut;       ///< what the bridge cut (the tunnel fill's dual) cut
     ShellCentreStats shell_centre;   ///< the vertices moved to the middle of their shell
     WindingSignStats winding_sign;   ///< the oriented normals and the winding-number tree
     FieldNormalsStats normals;       ///< the oriented normals of the input points (all 0: not asked for)

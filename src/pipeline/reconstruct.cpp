@@ -334,6 +334,8 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
         r.cavity_fill.cavity_samples += again.cavity_samples;
         r.cavity_fill.labelled_cavities += again.labelled_cavities;
     }
+    // The dual: bridges of solid as thin, cut where that removes a handle and leaves the solid whole.
+    r.bridge_cut = cut_bridges(grid, options.tunnel_fill);
     r.winding_corrected = winding.corrected();
     r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations;
     r.seconds_grid = seconds_since(t0);

@@ -340,6 +340,7 @@ TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, shell-centre, smooth
     } cases[] = {
         {"--cavity-fill yes", "--cavity-fill must be on or off (got 'yes')"},
         {"--tunnel-fill maybe", "--tunnel-fill must be on or off (got 'maybe')"},
+        {"--bridge-cut maybe", "--bridge-cut must be on or off (got 'maybe')"},
         {"--shell-centre 2", "--shell-centre must be on or off (got '2')"},
         {"--smooth maybe", "--smooth must be auto, on or off (got 'maybe')"},
         {"--winding-sign 1", "--winding-sign must be on or off (got '1')"},
@@ -354,7 +355,7 @@ TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, shell-centre, smooth
         CHECK(r.err.find(c.message) != std::string::npos);
     }
     // Good values pass the option checks: the run then stops at the missing input, naming it.
-    const RunResult good = run(bin("pcp_reconstruct") + " --cavity-fill off --tunnel-fill off --shell-centre off --smooth on --winding-sign on --winding-near 1 --sign-guide on --label-votes 4 /nonexistent/x.ply -o '" +
+    const RunResult good = run(bin("pcp_reconstruct") + " --cavity-fill off --tunnel-fill off --bridge-cut off --shell-centre off --smooth on --winding-sign on --winding-near 1 --sign-guide on --label-votes 4 /nonexistent/x.ply -o '" +
                                (case_dir("cavity_fill") / "o.ply").string() + "'");
     INFO("stderr: " << good.err);
     CHECK(good.exit_code == 1);
