@@ -318,6 +318,10 @@ int main(int argc, char** argv) {
             ("tunnel-fill", "on | off: plug the passages through the solid that are two cells across or less (the small "
                             "handles of a bumpy field; evaluates the whole grid; not in the paper; include/pcp/mesh/tunnel_fill.hpp)",
              cxxopts::value<std::string>()->default_value(d.tunnel_fill.enabled ? "on" : "off"))
+            ("bridge-cut", "on | off: with the tunnel fill, also cut the bridges of solid two cells across or less where that "
+                           "removes a small handle and leaves the solid in one piece (the tunnel fill's dual; not in the paper; off by default: "
+                           "it widens the holes of a thin wall the field already perforated)",
+             cxxopts::value<std::string>()->default_value(d.tunnel_fill.cut_bridges ? "on" : "off"))
             ("shell-centre", "on | off: on a noisy (denoised) cloud, put the surface in the middle of the noise band's "
                              "shell instead of on its outer wall (not in the paper; include/pcp/mesh/shell_centre.hpp)",
              cxxopts::value<std::string>()->default_value(d.shell_centre.enabled ? "on" : "off"))
@@ -497,6 +501,11 @@ int main(int argc, char** argv) {
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--tunnel-fill must be on or off (got '" + v + "')");
             o.tunnel_fill.enabled = v == "on";
         }
+        if (args.count("bridge-cut")) {
+            const std::string v = args["bridge-cut"].as<std::string>();
+            if (v != "on" && v != "off") throw pcp::cli::UsageError("--bridge-cut must be on or off (got '" + v + "')");
+            o.tunnel_fill.cut_bridges = v == "on";
+        }
         if (args.count("shell-centre")) {
             const std::string v = args["shell-centre"].as<std::string>();
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--shell-centre must be on or off (got '" + v + "')");
@@ -666,9 +675,14 @@ int main(int argc, char** argv) {
           << ", tunnel fill " << (report.tunnel_fill.skipped ? std::string("skipped (grid too large)")
                                    : "plugged " + std::to_string(report.tunnel_fill.plugged) + " of " +
                                          std::to_string(report.tunnel_fill.candidates) + " narrow passages")
+          << (o.tunnel_fill.enabled && o.tunnel_fill.cut_bridges && !report.bridge_cut.skipped
+                  ? ", bridge cut " + std::to_string(report.bridge_cut.cut) + " of " + std::to_string(report.bridge_cut.candidates) + " thin pieces"
+                  : std::string())
           << shell_text
           << ", surface fit removed " << report.surface_fit.removed_components << " of " << report.surface_fit.components
-          << " components (no input points near them)" << (report.smoothed ? ", smoothed" : "")
+          << " components (no input points near them" +
+                 (report.surface_fit.removed_small > 0 ? ", or " + std::to_string(report.surface_fit.removed_small) + " smaller than the sampling scale" : std::string()) +
+                 ")" << (report.smoothed ? ", smoothed" : "")
           << (o.scene.enabled ? ", scene mode removed " + std::to_string(report.scene_trimmed) + " faces with no data near them"
                               : std::string());
         log.info(s.str());

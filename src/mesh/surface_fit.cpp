@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <vector>
 
@@ -96,6 +97,7 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
                            SurfaceFitStats* stats) {
     PCP_CHECK(options.support_k > 0 && options.move_k > 0, "surface fit: support_k and move_k must be > 0");
     PCP_CHECK(options.min_supported >= 0 && options.min_supported <= 1, "surface fit: min_supported must be in [0, 1]");
+    PCP_CHECK(options.min_extent_k >= 0, "surface fit: min_extent_k must be >= 0");
     PCP_CHECK(options.iterations >= 0 && options.iterations <= 100, "surface fit: iterations must be in [0, 100]");
     PCP_CHECK(options.neighbors >= 3 && options.noisy_neighbors >= 3, "surface fit: neighbors and noisy_neighbors must be >= 3");
     PCP_CHECK(options.bandwidth > 0, "surface fit: bandwidth must be > 0");
@@ -133,12 +135,33 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
         ++total[static_cast<std::size_t>(r)];
         if (to_data(v) <= support) ++supported[static_cast<std::size_t>(r)];
     }
+    // Each component's bounding box, and the largest component (by vertices), which is never removed
+    // for its size.
+    const double inf = std::numeric_limits<double>::infinity();
+    std::vector<Eigen::Vector3d> box_lo(static_cast<std::size_t>(V0), Eigen::Vector3d::Constant(inf)),
+        box_hi(static_cast<std::size_t>(V0), Eigen::Vector3d::Constant(-inf));
+    for (Eigen::Index v = 0; v < V0; ++v) {
+        if (!used[static_cast<std::size_t>(v)]) continue;
+        const auto r = static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)));
+        const Eigen::Vector3d p = unit_mesh.vertices.row(v).transpose();
+        box_lo[r] = box_lo[r].cwiseMin(p);
+        box_hi[r] = box_hi[r].cwiseMax(p);
+    }
+    Eigen::Index largest = -1;
+    for (Eigen::Index v = 0; v < V0; ++v)
+        if (total[static_cast<std::size_t>(v)] > 0 && (largest < 0 || total[static_cast<std::size_t>(v)] > total[static_cast<std::size_t>(largest)]))
+            largest = v;
     std::vector<bool> keep_root(static_cast<std::size_t>(V0), false);
     for (Eigen::Index v = 0; v < V0; ++v) {
         if (total[static_cast<std::size_t>(v)] == 0) continue;
         ++st.components;
-        const bool keep = static_cast<double>(supported[static_cast<std::size_t>(v)]) >=
-                          options.min_supported * static_cast<double>(total[static_cast<std::size_t>(v)]);
+        bool keep = static_cast<double>(supported[static_cast<std::size_t>(v)]) >=
+                    options.min_supported * static_cast<double>(total[static_cast<std::size_t>(v)]);
+        if (keep && v != largest &&
+            (box_hi[static_cast<std::size_t>(v)] - box_lo[static_cast<std::size_t>(v)]).norm() < options.min_extent_k * st.scale) {
+            keep = false;
+            ++st.removed_small;
+        }
         keep_root[static_cast<std::size_t>(v)] = keep;
         if (!keep) ++st.removed_components;
     }

@@ -1,5 +1,5 @@
 // Tests for pcp/mesh/surface_fit.hpp: a component with no data near it is removed and the rest kept
-// intact; a rippled sphere is brought onto its points; the two sides of a thin slab stay apart;
+// intact; so is a supported one smaller than the sampling scale (never the largest); a rippled sphere is brought onto its points; the two sides of a thin slab stay apart;
 // topology is unchanged; disabled is the identity; bad options throw.
 #include "mc_test_util.hpp"
 #include "pcp/cloud/shapes.hpp"
@@ -50,13 +50,50 @@ TEST_CASE("surface fit: a component with no input point near it is removed, the 
     REQUIRE(out.faces.rows() == alone.faces.rows());
     CHECK(pcp::is_closed_and_oriented(out));
     CHECK(out.vertices.rowwise().norm().maxCoeff() < 0.32);  // only the sphere is left
-    // A component with data near it is never removed, however small.
+    // A component with data near it and larger than the sampling scale is kept.
     pcp::PointsF with_debris(6000 + 200, 3);
     with_debris.topRows(6000) = sphere_points(6000, 0.3, 3);
     with_debris.bottomRows(200) = pcp::sample_sphere(200, 0.05, Eigen::Vector3d::Constant(0.48), 4).points.cast<float>();
     const pcp::Mesh kept = pcp::fit_surface_to_points(both, pcp::KdTree(with_debris), o, &st);
     CHECK(st.removed_components == 0);
     CHECK(kept.faces.rows() == both.faces.rows());
+}
+
+TEST_CASE("surface fit: a supported component smaller than the sampling scale is removed, the largest never", "[surface_fit]") {
+    const pcp::Mesh sphere = mesh_of(sphere_sdf({0, 0, 0}, 0.3), 64);
+    const pcp::KdTree tree(sphere_points(6000, 0.3, 3));
+    // A closed octahedron of radius 0.004 just inside the sphere's surface, among its points (the
+    // sliver a bumpy field leaves along a sharp edge): supported, but a few points' worth of surface.
+    pcp::Mesh both = sphere;
+    const Eigen::Index V = sphere.vertices.rows(), F = sphere.faces.rows();
+    both.vertices.conservativeResize(V + 6, 3);
+    both.faces.conservativeResize(F + 8, 3);
+    const Eigen::RowVector3d c(0.295, 0, 0);
+    const double r = 0.004;
+    const double offsets[6][3] = {{r, 0, 0}, {-r, 0, 0}, {0, r, 0}, {0, -r, 0}, {0, 0, r}, {0, 0, -r}};
+    for (int k = 0; k < 6; ++k) both.vertices.row(V + k) = c + Eigen::RowVector3d(offsets[k][0], offsets[k][1], offsets[k][2]);
+    const int tris[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+    for (int k = 0; k < 8; ++k)
+        for (int j = 0; j < 3; ++j) both.faces(F + k, j) = static_cast<int>(V) + tris[k][j];
+    pcp::SurfaceFitOptions o;
+    o.iterations = 0;
+    pcp::SurfaceFitStats st;
+    const pcp::Mesh out = pcp::fit_surface_to_points(both, tree, o, &st);
+    INFO("sampling scale " << st.scale);
+    REQUIRE(2 * r * std::sqrt(2.0) < st.scale);
+    CHECK(st.components == 2);
+    CHECK(st.removed_components == 1);
+    CHECK(st.removed_small == 1);
+    CHECK(out.faces.rows() == F);
+    // With the rule off (min_extent_k 0) it stays; the largest component is never removed for its size.
+    o.min_extent_k = 0;
+    CHECK(pcp::fit_surface_to_points(both, tree, o, &st).faces.rows() == F + 8);
+    CHECK(st.removed_small == 0);
+    o.min_extent_k = 100;  // every component "small": the largest stays
+    CHECK(pcp::fit_surface_to_points(both, tree, o, &st).faces.rows() == F);
+    CHECK(st.removed_small == 1);
+    o.min_extent_k = -1;
+    CHECK_THROWS_WITH(pcp::fit_surface_to_points(both, tree, o), Catch::Contains("min_extent_k"));
 }
 
 TEST_CASE("surface fit: a rippled sphere is brought onto its points, topology unchanged", "[surface_fit]") {

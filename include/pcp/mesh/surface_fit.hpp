@@ -11,7 +11,9 @@
 //     3.7 x the nearest-neighbour spacing of an even sampling, which the denoiser's collapsed
 //     pairs do not shrink; 0.8 x scale is pcp_eval --diagnose's 3 spacings). A connected component
 //     whose supported vertices are fewer than min_supported of its vertices
-//     has no data under it and is removed. Nothing else is removed.
+//     has no data under it and is removed. So is a component (not the largest) whose bounding box's
+//     diagonal is under min_extent_k x scale: a few points' worth of surface, a bubble or a sliver
+//     of the field along a sharp edge, no shape the data can resolve. Nothing else is removed.
 //  2. Normal mean-shift, `iterations` times. For each supported vertex v with unit normal n (area
 //     weighted, averaged over its one-ring) take its `neighbors` nearest input points p_i, their
 //     offsets o_i = (p_i - v) . n and distances d_i, h = the largest d_i and b = bandwidth x the
@@ -38,6 +40,7 @@ struct SurfaceFitOptions {
     bool enabled = true;          ///< off: the mesh is returned as it is
     double support_k = 0.8;       ///< support radius in units of the sampling scale (0.8: about 3 spacings of an even sampling)
     double min_supported = 0.1;   ///< a component with fewer supported vertices than this fraction is removed
+    double min_extent_k = 1.0;    ///< a component (not the largest) whose bounding-box diagonal is under this x scale is removed
     double move_k = 1.5;          ///< a vertex moves only when an input point lies within move_k x scale
     int iterations = 10;          ///< normal mean-shift + relaxation rounds (0: support filter only)
     /// Input points per vertex (>= 3). Measured on the shared cases (docs/BENCHMARKS.md): 16 on
@@ -57,7 +60,8 @@ struct SurfaceFitOptions {
 
 struct SurfaceFitStats {
     std::int64_t components = 0;          ///< connected components before the filter
-    std::int64_t removed_components = 0;  ///< removed by the support filter
+    std::int64_t removed_components = 0;  ///< removed by the support filter (with the small ones)
+    std::int64_t removed_small = 0;       ///< of which smaller than min_extent_k x scale
     std::int64_t removed_faces = 0;
     std::int64_t supported_vertices = 0;  ///< vertices within move_k x scale of the data (those the last round moved)
     double mean_shift = 0;                ///< mean |m| of the last round (unit-box units)
