@@ -184,6 +184,15 @@ bool inside_stays_connected(const Lattice& L, const std::vector<std::uint8_t>& i
     return true;
 }
 
+/// Every stored copy of the samples in `mask` made inside (negative) or outside (positive), |F|
+/// kept (a tiny value where F was 0).
+void move_to_side(SdfGrid& grid, const std::vector<std::uint8_t>& mask, bool inside) {
+    const float tiny = static_cast<float>(1e-6 * grid.spec.spacing().minCoeff());
+    detail::for_each_stored_sample(grid, [&](float& v, std::int64_t g) {
+        if (mask[static_cast<std::size_t>(g)]) v = inside ? -std::max(std::abs(v), tiny) : std::max(std::abs(v), tiny);
+    });
+}
+
 }  // namespace
 
 TunnelFillStats fill_tunnels(SdfGrid& grid, const TunnelFillOptions& options) {
@@ -205,11 +214,7 @@ TunnelFillStats fill_tunnels(SdfGrid& grid, const TunnelFillOptions& options) {
         st.plugged_samples += static_cast<std::int64_t>(piece.members.size());
         for (std::int64_t g : piece.members) plug[static_cast<std::size_t>(g)] = 1;
     }
-    if (st.plugged == 0) return st;
-    const float tiny = static_cast<float>(1e-6 * grid.spec.spacing().minCoeff());
-    detail::for_each_stored_sample(grid, [&](float& v, std::int64_t g) {
-        if (plug[static_cast<std::size_t>(g)]) v = -std::max(v, tiny);
-    });
+    if (st.plugged > 0) move_to_side(grid, plug, true);
     return st;
 }
 
@@ -235,11 +240,7 @@ BridgeCutStats cut_bridges(SdfGrid& grid, const TunnelFillOptions& options) {
         st.cut_samples += static_cast<std::int64_t>(piece.members.size());
         for (std::int64_t g : piece.members) cut[static_cast<std::size_t>(g)] = 1;
     }
-    if (st.cut == 0) return st;
-    const float tiny = static_cast<float>(1e-6 * grid.spec.spacing().minCoeff());
-    detail::for_each_stored_sample(grid, [&](float& v, std::int64_t g) {
-        if (cut[static_cast<std::size_t>(g)]) v = std::max(-v, tiny);
-    });
+    if (st.cut > 0) move_to_side(grid, cut, false);
     return st;
 }
 

@@ -7,13 +7,22 @@
 
 namespace pcp::nn {
 
+namespace {
+
+/// Z = W A + b's shapes, checked; `who` names the caller in the error.
 template <class S>
-void linear_forward(MatRef<S> Z, const CMatRef<S>& A, const CMatRef<S>& W, const CMatRef<S>& b) {
+void check_linear_shapes(const char* who, const MatRef<S>& Z, const CMatRef<S>& A, const CMatRef<S>& W, const CMatRef<S>& b) {
     PCP_CHECK(W.rows() == Z.rows() && W.cols() == A.rows() && A.cols() == Z.cols() &&
                   b.rows() == Z.rows() && b.cols() == 1,
-              "nn::linear_forward: shapes: Z " << Z.rows() << "x" << Z.cols() << ", W " << W.rows()
-                                               << "x" << W.cols() << ", A " << A.rows() << "x"
-                                               << A.cols() << ", b " << b.rows() << "x" << b.cols());
+              who << ": shapes: Z " << Z.rows() << "x" << Z.cols() << ", W " << W.rows() << "x" << W.cols()
+                  << ", A " << A.rows() << "x" << A.cols() << ", b " << b.rows() << "x" << b.cols());
+}
+
+}  // namespace
+
+template <class S>
+void linear_forward(MatRef<S> Z, const CMatRef<S>& A, const CMatRef<S>& W, const CMatRef<S>& b) {
+    check_linear_shapes<S>("nn::linear_forward", Z, A, W, b);
     gemm<S>(Z, W, A, S(1), S(0));
     Z.colwise() += b.col(0);
 }
@@ -30,11 +39,7 @@ void bias_relu(MatRef<S> Z, const CMatRef<S>& b) {
 
 template <class S>
 void linear_relu_forward(MatRef<S> Z, const CMatRef<S>& A, const CMatRef<S>& W, const CMatRef<S>& b) {
-    PCP_CHECK(W.rows() == Z.rows() && W.cols() == A.rows() && A.cols() == Z.cols() &&
-                  b.rows() == Z.rows() && b.cols() == 1,
-              "nn::linear_relu_forward: shapes: Z " << Z.rows() << "x" << Z.cols() << ", W " << W.rows()
-                                                    << "x" << W.cols() << ", A " << A.rows() << "x"
-                                                    << A.cols() << ", b " << b.rows() << "x" << b.cols());
+    check_linear_shapes<S>("nn::linear_relu_forward", Z, A, W, b);
     gemm<S>(Z, W, A, S(1), S(0));
     bias_relu<S>(Z, b);
 }
