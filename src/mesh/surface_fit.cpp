@@ -125,28 +125,24 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
             const std::int32_t a = find_root(parent, unit_mesh.faces(f, 0)), b = find_root(parent, unit_mesh.faces(f, k));
             if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
         }
+    // Per component (at its root): vertices, supported vertices and bounding box.
+    const double inf = std::numeric_limits<double>::infinity();
     std::vector<std::int64_t> total(static_cast<std::size_t>(V0), 0), supported(static_cast<std::size_t>(V0), 0);
+    std::vector<Eigen::Vector3d> box_lo(static_cast<std::size_t>(V0), Eigen::Vector3d::Constant(inf)),
+        box_hi(static_cast<std::size_t>(V0), Eigen::Vector3d::Constant(-inf));
     std::vector<bool> used(static_cast<std::size_t>(V0), false);
     for (Eigen::Index f = 0; f < unit_mesh.faces.rows(); ++f)
         for (int k = 0; k < 3; ++k) used[static_cast<std::size_t>(unit_mesh.faces(f, k))] = true;
     for (Eigen::Index v = 0; v < V0; ++v) {
         if (!used[static_cast<std::size_t>(v)]) continue;
-        const std::int32_t r = find_root(parent, static_cast<std::int32_t>(v));
-        ++total[static_cast<std::size_t>(r)];
-        if (to_data(v) <= support) ++supported[static_cast<std::size_t>(r)];
-    }
-    // Each component's bounding box, and the largest component (by vertices), which is never removed
-    // for its size.
-    const double inf = std::numeric_limits<double>::infinity();
-    std::vector<Eigen::Vector3d> box_lo(static_cast<std::size_t>(V0), Eigen::Vector3d::Constant(inf)),
-        box_hi(static_cast<std::size_t>(V0), Eigen::Vector3d::Constant(-inf));
-    for (Eigen::Index v = 0; v < V0; ++v) {
-        if (!used[static_cast<std::size_t>(v)]) continue;
         const auto r = static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)));
+        ++total[r];
+        if (to_data(v) <= support) ++supported[r];
         const Eigen::Vector3d p = unit_mesh.vertices.row(v).transpose();
         box_lo[r] = box_lo[r].cwiseMin(p);
         box_hi[r] = box_hi[r].cwiseMax(p);
     }
+    // The largest component (by vertices) is never removed for its size.
     Eigen::Index largest = -1;
     for (Eigen::Index v = 0; v < V0; ++v)
         if (total[static_cast<std::size_t>(v)] > 0 && (largest < 0 || total[static_cast<std::size_t>(v)] > total[static_cast<std::size_t>(largest)]))

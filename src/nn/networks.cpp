@@ -221,7 +221,7 @@ void branch_mlp_forward(const BranchMlp<S>& net, const CMatRef<S>& xa, const CMa
             linear_relu_forward<S>(A0b, xb, net.W(1), net.b(1));
         }
     }
-    // Hidden 1: z_1 = W_1 [h_a; h_b] + b_1.
+    // Hidden 1: a_1 = relu(W_1 [h_a; h_b] + b_1).
     auto Z1 = c.a[0].leftCols(n);
     if (sh.in_b == 0) {
         linear_relu_forward<S>(Z1, A0a, W1, net.b(l1));
