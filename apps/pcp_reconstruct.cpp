@@ -322,6 +322,10 @@ int main(int argc, char** argv) {
                            "removes a small handle and leaves the solid in one piece (the tunnel fill's dual; not in the paper; off by default: "
                            "it widens the holes of a thin wall the field already perforated)",
              cxxopts::value<std::string>()->default_value(d.tunnel_fill.cut_bridges ? "on" : "off"))
+            ("mc-ambiguity", "join | decider | separate: how marching cubes cuts a grid face whose diagonal corners share "
+                             "a sign: the inside joined (the default: the mesh has the topology the grid repairs count), "
+                             "by the bilinear saddle (asymptotic decider), or the inside separated (include/pcp/mesh/marching_cubes.hpp)",
+             cxxopts::value<std::string>()->default_value("join"))
             ("shell-centre", "on | off: on a noisy (denoised) cloud, put the surface in the middle of the noise band's "
                              "shell instead of on its outer wall (not in the paper; include/pcp/mesh/shell_centre.hpp)",
              cxxopts::value<std::string>()->default_value(d.shell_centre.enabled ? "on" : "off"))
@@ -505,6 +509,13 @@ int main(int argc, char** argv) {
             const std::string v = args["bridge-cut"].as<std::string>();
             if (v != "on" && v != "off") throw pcp::cli::UsageError("--bridge-cut must be on or off (got '" + v + "')");
             o.tunnel_fill.cut_bridges = v == "on";
+        }
+        if (args.count("mc-ambiguity")) {
+            const std::string v = args["mc-ambiguity"].as<std::string>();
+            if (v == "join") o.marching_cubes.ambiguity = pcp::McAmbiguity::JoinInside;
+            else if (v == "decider") o.marching_cubes.ambiguity = pcp::McAmbiguity::AsymptoticDecider;
+            else if (v == "separate") o.marching_cubes.ambiguity = pcp::McAmbiguity::SeparateInside;
+            else throw pcp::cli::UsageError("--mc-ambiguity must be join, decider or separate (got '" + v + "')");
         }
         if (args.count("shell-centre")) {
             const std::string v = args["shell-centre"].as<std::string>();

@@ -11,6 +11,7 @@
 #include "pcp/mesh/cavity_fill.hpp"
 #include "pcp/mesh/field_normals.hpp"
 #include "pcp/mesh/fine_repair.hpp"
+#include "pcp/mesh/marching_cubes.hpp"
 #include "pcp/mesh/shell_centre.hpp"
 #include "pcp/mesh/tunnel_fill.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
@@ -86,6 +87,13 @@ struct ReconstructOptions {
     CavityFillOptions cavity_fill;   ///< fill enclosed positive pockets (hollow shells of noisy scans) on a dense grid (not in the paper)
     FineRepairOptions fine_repair;   ///< the sign repair's rule on the fine grid, for thin membranes (not in the paper)
     TunnelFillOptions tunnel_fill;   ///< plug passages through the solid two cells across or less, and cut solid bridges as thin, on a dense grid (not in the paper)
+    /// How marching cubes cuts an ambiguous face: the inside joined, so that the mesh bounds the
+    /// solid of closed cubes whose handles and pockets the fills above count and remove (not in
+    /// the paper). The asymptotic decider separates some diagonal pairs that solid joins: on the
+    /// built-in shape it put back two handles the tunnel fill had no reason to see (genus 3 for 1),
+    /// and tore abc_00010045's thin wall into 435 pieces (docs/BENCHMARKS.md, "Marching cubes on
+    /// the repairs' solid").
+    MarchingCubesOptions marching_cubes{McAmbiguity::JoinInside};
     ShellCentreOptions shell_centre; ///< noisy clouds: the surface in the middle of the noise band's shell, not on its outer wall (not in the paper)
     SurfaceFitOptions surface_fit;   ///< support filter and fit of the mesh onto the data (not in the paper)
     SmoothOptions smoothing;         ///< bilateral smoothing of the final mesh, of noisy clouds by default (not in the paper)

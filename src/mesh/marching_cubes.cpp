@@ -2,10 +2,11 @@
 // is processed independently (OpenMP): it lists the crossed lattice edges of its closed box with
 // their interpolated positions, and the triangles of its cubes as triples of global edge ids, taken
 // from the generated case table (src/mc_cases.*) with the ambiguous faces resolved from their own
-// four values. The blocks' results are then merged: vertices are the distinct edge ids in
-// increasing order, so a vertex on a block boundary, computed by both blocks from the same values,
-// appears once and the mesh is shared-vertex and watertight across blocks. The rare polygons that
-// need a centre vertex (mc_cases.hpp) get one id per cell and polygon, after all edge ids.
+// four values (or all joined, McAmbiguity::JoinInside, case 4 by its tube). The blocks' results are
+// then merged: vertices are the distinct edge ids in increasing order, so a vertex on a block
+// boundary, computed by both blocks from the same values, appears once and the mesh is
+// shared-vertex and watertight across blocks. The rare polygons that need a centre vertex
+// (mc_cases.hpp) get one id per cell and polygon, after all edge ids.
 //
 // Letters as in sdf_grid.cpp: R = resolution, B = block_cells, S = B + 1, K = stored blocks.
 // Global edge id of the edge from sample g along axis a: ((g.z * (R+1) + g.y) * (R+1) + g.x) * 3 + a;
@@ -33,6 +34,7 @@ struct BlockMesh {
 // Per-configuration data looked up in the inner loop.
 struct CubeTables {
     std::array<int, 256> ambiguous{};                 // mask of ambiguous faces
+    std::array<bool, 256> body_pair{};                // case 4: two inside corners on a body diagonal
     std::array<std::array<int, 4>, 6> face_corners{};  // cyclic corner order of each face
     std::array<int, 12> edge_axis{};
     std::array<Eigen::Vector3i, 12> edge_start{};      // start corner offset of each edge
@@ -40,7 +42,10 @@ struct CubeTables {
 
 CubeTables make_cube_tables() {
     CubeTables t;
-    for (int c = 0; c < 256; ++c) t.ambiguous[c] = detail::mc_ambiguous_faces(c);
+    for (int c = 0; c < 256; ++c) {
+        t.ambiguous[c] = detail::mc_ambiguous_faces(c);
+        t.body_pair[c] = detail::mc_body_diagonal_pair(c);
+    }
     for (int f = 0; f < 6; ++f) t.face_corners[f] = detail::mc_face_corners(f);
     for (int e = 0; e < 12; ++e) {
         const int s = detail::mc_edge_corners(e)[0];
@@ -66,6 +71,7 @@ Mesh marching_cubes(const SdfGrid& grid, const MarchingCubesOptions& options) {
     const std::vector<detail::McCase>& table = detail::mc_case_table();
     static const CubeTables cube = make_cube_tables();
     const bool decider = options.ambiguity == McAmbiguity::AsymptoticDecider;
+    const bool join = options.ambiguity == McAmbiguity::JoinInside;
     const std::int64_t n1 = R + 1;
     auto edge_id = [n1](const Eigen::Vector3i& g, int axis) {
         return ((std::int64_t(g.z()) * n1 + g.y()) * n1 + g.x()) * 3 + axis;
@@ -119,7 +125,9 @@ Mesh marching_cubes(const SdfGrid& grid, const MarchingCubesOptions& options) {
                     if (config == 0 || config == 255) continue;
                     int face_bits = 0;
                     const int amb = cube.ambiguous[config];
-                    if (decider && amb) {
+                    if (join) {
+                        face_bits = amb | (cube.body_pair[config] ? detail::kInteriorBit : 0);
+                    } else if (decider && amb) {
                         for (int f = 0; f < 6; ++f) {
                             if (!((amb >> f) & 1)) continue;
                             const auto& p = cube.face_corners[f];
@@ -129,7 +137,7 @@ Mesh marching_cubes(const SdfGrid& grid, const MarchingCubesOptions& options) {
                             if (joined) face_bits |= 1 << f;
                         }
                     }
-                    const detail::McCase& mc = table[std::size_t(config * 64 + face_bits)];
+                    const detail::McCase& mc = table[std::size_t(config * detail::kCaseBits + face_bits)];
                     const Eigen::Vector3i cell = X * B + Eigen::Vector3i(i, j, k);
                     const std::int64_t centre_base =
                         centre_id0 + ((std::int64_t(cell.z()) * R + cell.y()) * R + cell.x()) * detail::kMaxCaseCentres;

@@ -6,13 +6,16 @@
 // is the induced boundary orientation of the outside region on the cube's surface. Each cycle is
 // triangulated by a small dynamic program that forbids diagonals between two edges of one face
 // and otherwise minimises the total diagonal length (edge midpoints as vertex positions); the
-// few polygons that admit no such triangulation get a fan around an added centre vertex.
+// few polygons that admit no such triangulation get a fan around an added centre vertex. Case 4
+// with the interior bit: a band of six triangles between its two corner triangles' sides.
 #include "mesh/mc_cases.hpp"
 
 #include "pcp/core/error.hpp"
 
 #include <Eigen/Geometry>  // cross products
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace pcp::detail {
@@ -91,6 +94,12 @@ int mc_ambiguous_faces(int config) {
     return mask;
 }
 
+bool mc_body_diagonal_pair(int config) {
+    for (int c = 0; c < 4; ++c)
+        if (config == ((1 << c) | (1 << (7 - c)))) return true;
+    return false;
+}
+
 std::vector<std::vector<int>> mc_case_polygons(int config, int face_bits) {
     PCP_CHECK(config >= 0 && config < 256 && face_bits >= 0 && face_bits < 64,
               "marching cubes: case (" << config << ", " << face_bits << ") out of range");
@@ -157,7 +166,8 @@ std::vector<std::vector<int>> mc_case_polygons(int config, int face_bits) {
     return polygons;
 }
 
-McCase mc_triangulate_case(int config, int face_bits) {
+McCase mc_triangulate_case(int config, int bits) {
+    PCP_CHECK(bits >= 0 && bits < kCaseBits, "marching cubes: case bits " << bits << " out of range");
     McCase out;
     int t = 0;
     auto add_triangle = [&](int a, int b, int c) {
@@ -167,6 +177,35 @@ McCase mc_triangulate_case(int config, int face_bits) {
         out.vertices[3 * t + 2] = static_cast<std::int8_t>(c);
         ++t;
     };
+    if ((bits & kInteriorBit) && mc_body_diagonal_pair(config)) {
+        // The tube: the six crossed edges (three at each inside corner) ordered by their angle
+        // around the diagonal alternate between the two corners; each three consecutive ones make
+        // a triangle, turned to face away from the diagonal (the outside). Its sides between two
+        // edges of one corner are the corner triangles' sides, with their direction.
+        int c0 = 0;
+        while (!((config >> c0) & 1)) ++c0;
+        const Eigen::Vector3d a = corner_position(c0), axis = (corner_position(7 - c0) - a).normalized();
+        const Eigen::Vector3d u = (axis.unitOrthogonal()), v = axis.cross(u);
+        std::vector<std::pair<double, int>> ring;
+        for (int e = 0; e < 12; ++e) {
+            const auto c = mc_edge_corners(e);
+            if (((config >> c[0]) & 1) == ((config >> c[1]) & 1)) continue;
+            const Eigen::Vector3d p = edge_midpoint(e) - a;
+            ring.emplace_back(std::atan2(p.dot(v), p.dot(u)), e);
+        }
+        PCP_CHECK(ring.size() == 6, "marching cubes: case " << config << ": a tube needs six crossings");
+        std::sort(ring.begin(), ring.end());
+        for (int k = 0; k < 6; ++k) {
+            int e0 = ring[std::size_t(k)].second, e1 = ring[std::size_t((k + 1) % 6)].second, e2 = ring[std::size_t((k + 2) % 6)].second;
+            const Eigen::Vector3d p0 = edge_midpoint(e0), p1 = edge_midpoint(e1), p2 = edge_midpoint(e2);
+            const Eigen::Vector3d m = (p0 + p1 + p2) / 3.0, radial = (m - a) - (m - a).dot(axis) * axis;
+            if ((p1 - p0).cross(p2 - p0).dot(radial) < 0.0) std::swap(e1, e2);
+            add_triangle(e0, e1, e2);
+        }
+        out.num_triangles = static_cast<std::uint8_t>(t);
+        return out;
+    }
+    const int face_bits = bits & (kInteriorBit - 1);
     for (const auto& poly : mc_case_polygons(config, face_bits)) {
         const int k = static_cast<int>(poly.size());
         PCP_CHECK(k >= 3, "marching cubes: case " << config << ": polygon with " << k << " edges");
@@ -217,12 +256,12 @@ McCase mc_triangulate_case(int config, int face_bits) {
 
 const std::vector<McCase>& mc_case_table() {
     static const std::vector<McCase> table = [] {
-        std::vector<McCase> cases(256 * 64);
+        std::vector<McCase> cases(256 * kCaseBits);
         for (int config = 0; config < 256; ++config) {
-            const int amb = mc_ambiguous_faces(config);
-            for (int bits = 0; bits < 64; ++bits) {
-                cases[config * 64 + bits] =
-                    (bits & ~amb) ? cases[config * 64 + (bits & amb)] : mc_triangulate_case(config, bits);
+            const int used = mc_ambiguous_faces(config) | (mc_body_diagonal_pair(config) ? kInteriorBit : 0);
+            for (int bits = 0; bits < kCaseBits; ++bits) {
+                cases[config * kCaseBits + bits] =
+                    (bits & ~used) ? cases[config * kCaseBits + (bits & used)] : mc_triangulate_case(config, bits);
             }
         }
         return cases;

@@ -13,8 +13,12 @@
 // generator needs one more bit: face bit f set means the two inside corners of face f are joined
 // through the face (the bilinear saddle is inside), clear means they are separated. That choice
 // depends only on the face's own four values, so the two cubes sharing a face always agree and the
-// mesh stays watertight. The table is indexed by config * 64 + face_bits; bits of non-ambiguous
-// faces are ignored (their entries equal the entry with those bits clear).
+// mesh stays watertight. One more bit (kInteriorBit) is about the cube's interior: a configuration
+// whose only two inside corners are opposite ends of a body diagonal (the classic case 4, no
+// ambiguous face) gives two corner triangles with the bit clear and a tube joining the two corners
+// through the cube with it set. The table is indexed by config * kCaseBits + bits; bits that do not
+// apply (faces not ambiguous, the interior bit outside case 4) are ignored: their entries equal the
+// entry with those bits clear.
 #pragma once
 
 #include <array>
@@ -26,6 +30,8 @@ namespace pcp::detail {
 constexpr int kMaxCaseTriangles = 12;  // 12 crossed edges at most; a polygon of k edges gives <= k triangles
 constexpr int kMaxCaseCentres = 4;     // polygons triangulated around an added centre vertex
 constexpr int kCentreCode = 12;        // triangle vertex code 12 + c: centre vertex c of the case
+constexpr int kInteriorBit = 64;       // bit 6: the body-diagonal pair of case 4 joined through the cube
+constexpr int kCaseBits = 128;         // six face bits and the interior bit
 
 std::array<int, 2> mc_edge_corners(int edge);
 /// The two faces that contain edge e.
@@ -35,6 +41,9 @@ std::array<int, 2> mc_edge_faces(int edge);
 std::array<int, 4> mc_face_corners(int face);
 /// The faces of `config` whose four corners form the ambiguous (checkerboard) pattern, as a mask.
 int mc_ambiguous_faces(int config);
+/// Whether the only inside corners of `config` are the two ends of one body diagonal (case 4):
+/// the one configuration whose inside corners no face joins, though they touch at the centre.
+bool mc_body_diagonal_pair(int config);
 
 /// The generator's first result: closed polygons (cycles of cube edge indices), each ordered so
 /// that its normal (right-hand rule) points to the outside (value >= iso) side.
@@ -55,10 +64,13 @@ struct McCase {
 /// four triangles. Among the valid triangulations, the one with the shortest chords (edge midpoints
 /// as positions). A polygon with no valid triangulation (a 9-gon winding around a corner whose
 /// three faces are all ambiguous, for example) becomes a fan around an added centre vertex, which
-/// keeps every edge inside the cube.
-McCase mc_triangulate_case(int config, int face_bits);
+/// keeps every edge inside the cube. `bits`: the face bits, plus kInteriorBit; for a body-diagonal
+/// pair with that bit, the two corner triangles' sides are instead joined by a band of six
+/// triangles (a tube around the diagonal; its chords join edges of opposite corners, never of one
+/// face).
+McCase mc_triangulate_case(int config, int bits);
 
-/// The full table, 256 * 64 entries, generated on first use (thread-safe static initialisation).
+/// The full table, 256 * kCaseBits entries, generated on first use (thread-safe static initialisation).
 const std::vector<McCase>& mc_case_table();
 
 }  // namespace pcp::detail

@@ -218,6 +218,40 @@ TunnelFillStats fill_tunnels(SdfGrid& grid, const TunnelFillOptions& options) {
     return st;
 }
 
+int solid_euler_characteristic(const SdfGrid& grid) {
+    Lattice L;
+    std::vector<std::uint8_t> inside;
+    PCP_CHECK(dense_inside(grid, std::numeric_limits<std::int64_t>::max(), L, inside),
+              "solid_euler_characteristic: the grid is not dense");
+    // Cells in doubled coordinates as in closing_pieces: cell (x, y, z), -1 <= x, y, z <= 2R + 1,
+    // belongs to the samples (i, j, k) with |2i - x| <= 1 (per axis); it is in the solid when one
+    // of them is inside. Dimension: the number of even coordinates.
+    const int hi = 2 * L.R + 1;
+    std::int64_t chi = 0;
+#pragma omp parallel for reduction(+ : chi) schedule(static)
+    for (int z = -1; z <= hi; ++z)
+        for (int y = -1; y <= hi; ++y)
+            for (int x = -1; x <= hi; ++x) {
+                const int c[3] = {x, y, z};
+                int lo_s[3], hi_s[3], dim = 0;
+                for (int a = 0; a < 3; ++a) {
+                    if (c[a] % 2 == 0) {
+                        ++dim;
+                        lo_s[a] = hi_s[a] = c[a] / 2;
+                    } else {
+                        lo_s[a] = (c[a] - 1) / 2;
+                        hi_s[a] = (c[a] + 1) / 2;
+                    }
+                }
+                bool in = false;
+                for (int k = lo_s[2]; k <= hi_s[2] && !in; ++k)
+                    for (int j = lo_s[1]; j <= hi_s[1] && !in; ++j)
+                        for (int i = lo_s[0]; i <= hi_s[0] && !in; ++i) in = L.at(inside, i, j, k);
+                if (in) chi += dim % 2 == 0 ? 1 : -1;
+            }
+    return static_cast<int>(chi);
+}
+
 BridgeCutStats cut_bridges(SdfGrid& grid, const TunnelFillOptions& options) {
     BridgeCutStats st;
     if (!options.enabled || !options.cut_bridges) return st;

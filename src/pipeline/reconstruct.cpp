@@ -342,7 +342,7 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
 
     t0 = std::chrono::steady_clock::now();
     // Extracted at F_g = iso + the thin level, then moved back by it (ReconstructOptions::thin_offset).
-    Mesh mc_mesh = marching_cubes(grid);
+    Mesh mc_mesh = marching_cubes(grid, options.marching_cubes);
     if (thin > 0) {  // back by the level each vertex was raised by
         Eigen::VectorXd back(mc_mesh.vertices.rows());
         for (Eigen::Index i = 0; i < back.size(); ++i)

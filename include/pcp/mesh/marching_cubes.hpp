@@ -20,6 +20,12 @@ enum class McAmbiguity {
                         ///< 1.6 % of the vertices on a white-noise field)
     SeparateInside,     ///< always separate the inside corners (a fixed sign convention): never a
                         ///< centre vertex, exactly one vertex per crossed grid edge
+    JoinInside,         ///< always join the inside corners, on every ambiguous face and, in a cube
+                        ///< whose only inside corners are the two ends of a body diagonal, through
+                        ///< its interior (a tube): the mesh bounds the union of the closed cubes
+                        ///< around the inside samples (26-connected inside, 6-connected outside),
+                        ///< the solid whose topology the grid repairs reason on (tunnel_fill.hpp,
+                        ///< cavity_fill.hpp); its Euler characteristic is twice that solid's
 };
 
 struct MarchingCubesOptions {

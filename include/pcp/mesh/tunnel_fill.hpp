@@ -51,6 +51,12 @@ struct TunnelFillStats {
 /// Plugs the narrow passages of `grid` described above, in place (every stored copy of a sample).
 TunnelFillStats fill_tunnels(SdfGrid& grid, const TunnelFillOptions& options = {});
 
+/// The Euler characteristic of the solid the rules above reason on: the union of the closed cubes
+/// (one cell wide) around the inside samples (F < 0) of a dense grid (components - handles +
+/// cavities). marching_cubes with McAmbiguity::JoinInside meshes its boundary, whose Euler
+/// characteristic is twice this. Throws if `grid` is not dense.
+int solid_euler_characteristic(const SdfGrid& grid);
+
 struct BridgeCutStats {
     bool skipped = false;          ///< not a dense grid, or larger than max_samples
     int candidates = 0;            ///< components of the inside samples the closing of the outside adds
