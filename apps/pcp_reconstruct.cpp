@@ -679,7 +679,11 @@ int main(int argc, char** argv) {
           << ", cavity fill " << (report.cavity_fill.skipped ? std::string("skipped (grid too large)")
                                    : "filled " + std::to_string(report.cavity_fill.cavities) + " pockets" +
                                          (report.cavity_fill.labelled_cavities > 0
-                                              ? " (" + std::to_string(report.cavity_fill.labelled_cavities) + " of them open but labelled inside)"
+                                              ? " (" + std::to_string(report.cavity_fill.labelled_cavities) + " of them open but labelled inside" +
+                                                    (report.cavity_fill.supported_cavities > 0
+                                                         ? ", " + std::to_string(report.cavity_fill.supported_cavities) + " open only on the data"
+                                                         : std::string()) +
+                                                    ")"
                                               : std::string()))
           << ", fine repair flipped " << report.fine_repair.flipped_components << " of " << report.fine_repair.components
           << " thin regions" << (report.fine_repair.skipped ? " (skipped: grid too large)" : "")

@@ -17,7 +17,7 @@ enum Label : std::uint8_t { kNone = 0, kOutside = 1, kCavity = 2 };
 
 }  // namespace
 
-CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, const VisibilityLabels* labels) {
+CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, const VisibilityLabels* labels, const KdTree* data) {
     PCP_CHECK(options.core_cells > 0 && std::isfinite(options.core_cells), "cavity fill: core_cells must be > 0");
     PCP_CHECK(options.max_open >= 0 && options.max_open <= 1 && options.noisy_max_open >= 0 && options.noisy_max_open <= 1,
               "cavity fill: max_open and noisy_max_open must be in [0, 1]");
@@ -25,6 +25,8 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
     CavityFillStats st;
     if (!options.enabled) return st;
     PCP_CHECK(options.labelled_max_open >= 0 && options.labelled_max_open <= 1, "cavity fill: labelled_max_open must be in [0, 1]");
+    PCP_CHECK(options.supported_openings >= 0 && options.support_k > 0 && std::isfinite(options.support_k),
+              "cavity fill: supported_openings must be >= 0 and support_k > 0");
     const bool vote = labels && options.min_label_votes > 0 && !labels->label.empty();
     const int R = grid.spec.resolution, n1 = R + 1;
     const std::int64_t total = std::int64_t(n1) * n1 * n1;
@@ -109,7 +111,8 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
     std::vector<std::uint8_t> flip(static_cast<std::size_t>(total), 0);
     {
         std::vector<std::uint8_t> seen(static_cast<std::size_t>(total), 0);
-        std::vector<std::int64_t> stack, members;
+        std::vector<std::int64_t> stack, members, openings;
+        double scale = -1;  // the data's sampling scale, computed when first needed
         for (std::int64_t g = 0; g < total; ++g) {
             const auto s0 = static_cast<std::size_t>(g);
             if (value[s0] <= 0.0f || label[s0] == kOutside || seen[s0]) continue;
@@ -117,6 +120,7 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
             stack.assign(1, g);
             seen[s0] = 1;
             std::int64_t open = 0, closed = 0;
+            openings.clear();
             while (!stack.empty()) {
                 const std::int64_t c = stack.back();
                 stack.pop_back();
@@ -128,6 +132,7 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
                         ++closed;
                     } else if (label[h] == kOutside) {
                         ++open;
+                        openings.push_back(nb[a]);
                     } else if (!seen[h]) {
                         seen[h] = 1;
                         stack.push_back(nb[a]);
@@ -142,7 +147,20 @@ CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, c
             }
             const bool labelled_inside = vote && inside_votes >= options.min_label_votes && 20 * outside_votes <= inside_votes;
             const double limit = labelled_inside ? std::max(options.labelled_max_open, options.max_open) : options.max_open;
-            if (double(open) > limit * double(open + closed)) continue;
+            if (double(open) > limit * double(open + closed)) {
+                // More open than that, but labelled inside and open only where the data is: a
+                // wall the field perforated all over, not open space.
+                if (!labelled_inside || !data || options.supported_openings > 1.0) continue;
+                if (scale < 0) scale = sampling_scale(*data);
+                std::int64_t supported = 0;
+                for (std::int64_t o : openings) {
+                    float d = 0;
+                    data->nearest_point(grid.spec.sample_position(int(o % n1), int((o / n1) % n1), int(o / (std::int64_t(n1) * n1))).cast<float>(), &d);
+                    supported += double(d) <= options.support_k * scale;
+                }
+                if (double(supported) < options.supported_openings * double(openings.size())) continue;
+                ++st.supported_cavities;
+            }
             st.labelled_cavities += labelled_inside && double(open) > options.max_open * double(open + closed);
             ++st.cavities;
             st.cavity_samples += static_cast<std::int64_t>(members.size());

@@ -322,17 +322,18 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // of the noise band later (include/pcp/mesh/shell_centre.hpp).
     std::optional<SdfGrid> before_fill;
     if (r.denoise_passes > 0 && options.shell_centre.enabled && fill.enabled && go.band == NarrowBand::Dense) before_fill = grid;
-    r.cavity_fill = fill_cavities(grid, fill, &labels);
+    r.cavity_fill = fill_cavities(grid, fill, &labels, &cloud.tree());
     // Membranes and bubbles too thin for the coarse grid (include/pcp/mesh/fine_repair.hpp).
     r.fine_repair = repair_fine_grid(grid, cloud.tree(), options.fine_repair);
     // Passages through the solid too narrow for the data to support: the small handles of a bumpy
     // field (include/pcp/mesh/tunnel_fill.hpp); a pocket a plug closed off is then a cavity.
     r.tunnel_fill = fill_tunnels(grid, options.tunnel_fill);
     if (r.tunnel_fill.plugged > 0) {
-        const CavityFillStats again = fill_cavities(grid, fill, &labels);
+        const CavityFillStats again = fill_cavities(grid, fill, &labels, &cloud.tree());
         r.cavity_fill.cavities += again.cavities;
         r.cavity_fill.cavity_samples += again.cavity_samples;
         r.cavity_fill.labelled_cavities += again.labelled_cavities;
+        r.cavity_fill.supported_cavities += again.supported_cavities;
     }
     // The dual: bridges of solid as thin, cut where that removes a handle and leaves the solid whole.
     r.bridge_cut = cut_bridges(grid, options.tunnel_fill);

@@ -1,9 +1,11 @@
 // Tests for pcp/mesh/cavity_fill.hpp: a hollow sphere (a shell of "inside" around a positive core)
 // is filled, leaving one sphere; a torus's hole and an open cup stay outside; a pinhole through the
 // shell does not let the outside in; a pocket the visibility labels see from outside stays; a hollow
-// wall perforated by wide tunnels is filled where the labels say inside, an island of inside labels in
-// the open is not; a sparse grid is skipped; bad options throw.
+// wall perforated by wide tunnels is filled where the labels say inside (more open than the limit
+// when its openings lie on the data), an island of inside labels in the open is not; a sparse grid
+// is skipped; bad options throw.
 #include "mc_test_util.hpp"
+#include "pcp/cloud/kdtree.hpp"
 #include "pcp/cloud/visibility.hpp"
 #include "pcp/core/error.hpp"
 #include "pcp/mesh/cavity_fill.hpp"
@@ -180,6 +182,55 @@ TEST_CASE("cavity fill: a hollow solid perforated by wide tunnels is filled wher
     CHECK((ball.values == ball_before));  // not decomposed: a failure would print both lattices
 }
 
+TEST_CASE("cavity fill: a pocket labelled inside and too open is filled when its openings lie on the data", "[cavity_fill]") {
+    // A ball of radius 0.4 whose field is a thin shell (0.03, 1.6 cells at 64^3 over 1.2) holed
+    // along x and y (radius 0.1): the hollow, perforated wall of a fit gone wrong, with the
+    // labels inside in the core. Every pocket counts as too open here (limits 0).
+    const ScalarSdf shell = hollow_sphere(0.4, 0.03);
+    const ScalarSdf holed = [=](const Eigen::Vector3d& p) {
+        const double along_x = std::hypot(p.y(), p.z()) - 0.1, along_y = std::hypot(p.x(), p.z()) - 0.1;
+        return std::max(shell(p), -std::min(along_x, along_y));
+    };
+    const pcp::SdfGrid original = dense_grid(holed, 64);
+    const pcp::VisibilityLabels labels = labels_over_cube([](const Eigen::Vector3d& c) {
+        return c.norm() < 0.34 ? -1 : c.norm() > 0.46 ? 1 : 0;
+    });
+    pcp::CavityFillOptions too_open;
+    too_open.labelled_max_open = 0;
+    too_open.max_open = 0;
+    // Points on the ball's true surface, over the holes too (the wall is there, the field perforated
+    // it), or without the holes' disks (real holes: the data stops at their rims).
+    auto surface_points = [](bool over_holes) {
+        std::vector<Eigen::Vector3f> kept;
+        const int n = 1000;
+        for (int i = 0; i < n; ++i) {  // a Fibonacci sphere of radius 0.4
+            const double z = 1.0 - (2.0 * i + 1.0) / n, r = std::sqrt(1.0 - z * z), phi = 2.39996322972865332 * i;
+            const Eigen::Vector3d p = 0.4 * Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), z);
+            if (!over_holes && (std::hypot(p.y(), p.z()) < 0.12 || std::hypot(p.x(), p.z()) < 0.12)) continue;
+            kept.push_back(p.cast<float>());
+        }
+        pcp::PointsF points(static_cast<Eigen::Index>(kept.size()), 3);
+        for (std::size_t i = 0; i < kept.size(); ++i) points.row(Eigen::Index(i)) = kept[i].transpose();
+        return points;
+    };
+    const pcp::KdTree perforated_wall(surface_points(true)), real_holes(surface_points(false));
+    pcp::SdfGrid without_data = original;
+    CHECK(pcp::fill_cavities(without_data, too_open, &labels).cavity_samples == 0);
+    pcp::SdfGrid on_data = original;
+    const pcp::CavityFillStats supported = pcp::fill_cavities(on_data, too_open, &labels, &perforated_wall);
+    CHECK(supported.cavities == 1);
+    CHECK(supported.supported_cavities == 1);
+    const pcp::Mesh filled = pcp::marching_cubes(on_data);
+    CHECK(topology(filled).euler() == 2);  // one closed surface
+    CHECK(filled.vertices.rowwise().norm().minCoeff() > 0.3);
+    pcp::SdfGrid holes = original;
+    CHECK(pcp::fill_cavities(holes, too_open, &labels, &real_holes).cavity_samples == 0);
+    pcp::CavityFillOptions never = too_open;
+    never.supported_openings = 2.0;
+    pcp::SdfGrid switched_off = original;
+    CHECK(pcp::fill_cavities(switched_off, never, &labels, &perforated_wall).cavity_samples == 0);
+}
+
 TEST_CASE("cavity fill: sparse grids are skipped, disabled is the identity, bad options throw", "[cavity_fill]") {
     pcp::SdfGrid sparse = pcp::evaluate_sdf_grid(batch(hollow_sphere(0.4, 0.06)), cube_grid(64));  // narrow band
     const std::vector<float> before = sparse.values;
@@ -206,5 +257,11 @@ TEST_CASE("cavity fill: sparse grids are skipped, disabled is the identity, bad 
     CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
     bad = {};
     bad.labelled_max_open = 2;
+    CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
+    bad = {};
+    bad.support_k = 0;
+    CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
+    bad = {};
+    bad.supported_openings = -1;
     CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
 }
