@@ -109,7 +109,7 @@ TEST_CASE("e2e: the default shape reconstructs closed, outward and close to its 
 
 // Issue 15's target for the README's main command (pcp_reconstruct --preset fast on the built-in
 // shape: 20,000 points, noise 0.002, seed 1): one closed component of genus 1 (the through-hole
-// open, no small handles), and the thin fin present. About a minute on 2 cores.
+// open, no small handles), and the thin fin present. About 10 s on 2 cores (fp32, Xeon).
 TEST_CASE("e2e: the README's command gives the built-in shape as one closed component of genus 1 with its fin", "[e2e]") {
     const pcp::PointCloud cloud = pcp::sample_default_shape(20000, 0.002, 1);
     pcp::ReconstructOptions options = pcp::ReconstructOptions::preset("fast");
