@@ -36,6 +36,24 @@ std::vector<int> face_bit_variants(int config) {
         if ((bits & ~amb) == 0) out.push_back(bits);
     return out;
 }
+// A dense grid (blocks of 4 cells, truncated at the edges unless R is a multiple of 4) holding
+// `table`'s values, sample (i, j, k) at (i, j, k): table[(k (R + 1) + j) (R + 1) + i].
+pcp::SdfGrid grid_of_table(const std::vector<float>& table, int R) {
+    pcp::GridSpec spec;
+    spec.resolution = R;
+    spec.box.min = Eigen::Vector3d::Zero();
+    spec.box.max = Eigen::Vector3d::Constant(R);
+    const pcp::SdfBatchFn field = [&](const Eigen::Ref<const pcp::PointsF>& p, Eigen::Ref<Eigen::VectorXf> v) {
+        for (Eigen::Index n = 0; n < p.rows(); ++n) {
+            const int i = int(std::lround(p(n, 0))), j = int(std::lround(p(n, 1))), k = int(std::lround(p(n, 2)));
+            v[n] = table[std::size_t((k * (R + 1) + j) * (R + 1) + i)];
+        }
+    };
+    pcp::SdfGridOptions opts;
+    opts.band = pcp::NarrowBand::Dense;
+    opts.block_cells = 4;
+    return pcp::evaluate_sdf_grid(field, spec, opts);
+}
 // The same, with the interior bit where it matters (case 4).
 std::vector<int> case_bit_variants(int config) {
     std::vector<int> out = face_bit_variants(config);
@@ -302,20 +320,7 @@ TEST_CASE("marching cubes: random fields give closed manifold meshes with both a
                     const bool border = i == 0 || j == 0 || k == 0 || i == R || j == R || k == R;
                     table[std::size_t((k * (R + 1) + j) * (R + 1) + i)] = border ? 1.0f : uniform(rng) - 0.2f * (trial % 3);
                 }
-        pcp::GridSpec spec;
-        spec.resolution = R;
-        spec.box.min = Eigen::Vector3d::Zero();
-        spec.box.max = Eigen::Vector3d::Constant(R);  // sample (i, j, k) at (i, j, k)
-        pcp::SdfBatchFn field = [&](const Eigen::Ref<const pcp::PointsF>& p, Eigen::Ref<Eigen::VectorXf> v) {
-            for (Eigen::Index n = 0; n < p.rows(); ++n) {
-                const int i = int(std::lround(p(n, 0))), j = int(std::lround(p(n, 1))), k = int(std::lround(p(n, 2)));
-                v[n] = table[std::size_t((k * (R + 1) + j) * (R + 1) + i)];
-            }
-        };
-        pcp::SdfGridOptions opts;
-        opts.band = pcp::NarrowBand::Dense;
-        opts.block_cells = 4;
-        const pcp::SdfGrid grid = pcp::evaluate_sdf_grid(field, spec, opts);
+        const pcp::SdfGrid grid = grid_of_table(table, R);
         for (auto rule : {pcp::McAmbiguity::AsymptoticDecider, pcp::McAmbiguity::SeparateInside}) {
             INFO("trial " << trial << " rule " << int(rule));
             pcp::MarchingCubesOptions mc;
@@ -365,20 +370,7 @@ TEST_CASE("marching cubes: joining the inside meshes the boundary of the closed-
                         config |= (table[std::size_t(((k + (q >> 2)) * (R + 1) + j + ((q >> 1) & 1)) * (R + 1) + i + (q & 1))] < 0.0f) << q;
                     tubes += d::mc_body_diagonal_pair(config);
                 }
-        pcp::GridSpec spec;
-        spec.resolution = R;
-        spec.box.min = Eigen::Vector3d::Zero();
-        spec.box.max = Eigen::Vector3d::Constant(R);
-        pcp::SdfBatchFn field = [&](const Eigen::Ref<const pcp::PointsF>& p, Eigen::Ref<Eigen::VectorXf> v) {
-            for (Eigen::Index n = 0; n < p.rows(); ++n) {
-                const int i = int(std::lround(p(n, 0))), j = int(std::lround(p(n, 1))), k = int(std::lround(p(n, 2)));
-                v[n] = table[std::size_t((k * (R + 1) + j) * (R + 1) + i)];
-            }
-        };
-        pcp::SdfGridOptions opts;
-        opts.band = pcp::NarrowBand::Dense;
-        opts.block_cells = 4;
-        const pcp::SdfGrid grid = pcp::evaluate_sdf_grid(field, spec, opts);
+        const pcp::SdfGrid grid = grid_of_table(table, R);
         const int solid = pcp::solid_euler_characteristic(grid);
         INFO("trial " << trial << ": solid's Euler characteristic " << solid);
         pcp::MarchingCubesOptions mc;
