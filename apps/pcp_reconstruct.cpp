@@ -697,6 +697,7 @@ int main(int argc, char** argv) {
           << ", surface fit removed " << report.surface_fit.removed_components << " of " << report.surface_fit.components
           << " components (no input points near them" +
                  (report.surface_fit.removed_small > 0 ? ", or " + std::to_string(report.surface_fit.removed_small) + " smaller than the sampling scale" : std::string()) +
+                 (report.surface_fit.removed_blisters > 0 ? ", or " + std::to_string(report.surface_fit.removed_blisters) + " lying on the largest within a sampling scale" : std::string()) +
                  ")" << (report.smoothed ? ", smoothed" : "")
           << (o.scene.enabled ? ", scene mode removed " + std::to_string(report.scene_trimmed) + " faces with no data near them"
                               : std::string());

@@ -97,7 +97,7 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
                            SurfaceFitStats* stats) {
     PCP_CHECK(options.support_k > 0 && options.move_k > 0, "surface fit: support_k and move_k must be > 0");
     PCP_CHECK(options.min_supported >= 0 && options.min_supported <= 1, "surface fit: min_supported must be in [0, 1]");
-    PCP_CHECK(options.min_extent_k >= 0, "surface fit: min_extent_k must be >= 0");
+    PCP_CHECK(options.min_extent_k >= 0 && options.blister_k >= 0, "surface fit: min_extent_k and blister_k must be >= 0");
     PCP_CHECK(options.iterations >= 0 && options.iterations <= 100, "surface fit: iterations must be in [0, 100]");
     PCP_CHECK(options.neighbors >= 3 && options.noisy_neighbors >= 3, "surface fit: neighbors and noisy_neighbors must be >= 3");
     PCP_CHECK(options.bandwidth > 0, "surface fit: bandwidth must be > 0");
@@ -160,6 +160,35 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
         }
         keep_root[static_cast<std::size_t>(v)] = keep;
         if (!keep) ++st.removed_components;
+    }
+    // A kept component (not the largest) whose every vertex lies within blister_k x scale of the
+    // largest one's vertices is a blister on it: a second sheet of surface the largest already
+    // has where the data is.
+    bool others = false;
+    for (Eigen::Index v = 0; v < V0 && !others; ++v) others = v != largest && total[static_cast<std::size_t>(v)] > 0 && keep_root[static_cast<std::size_t>(v)];
+    if (others && options.blister_k > 0) {
+        std::vector<Eigen::Index> main_vertices;
+        std::vector<bool> blister(static_cast<std::size_t>(V0), true);
+        for (Eigen::Index v = 0; v < V0; ++v)
+            if (used[static_cast<std::size_t>(v)] && find_root(parent, static_cast<std::int32_t>(v)) == largest) main_vertices.push_back(v);
+        PointsF main_points(static_cast<Eigen::Index>(main_vertices.size()), 3);
+        for (std::size_t i = 0; i < main_vertices.size(); ++i)
+            main_points.row(Eigen::Index(i)) = unit_mesh.vertices.row(main_vertices[i]).cast<float>();
+        const KdTree main_tree(main_points);
+        for (Eigen::Index v = 0; v < V0; ++v) {
+            if (!used[static_cast<std::size_t>(v)]) continue;
+            const auto r = static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)));
+            if (Eigen::Index(r) == largest || !keep_root[r] || !blister[r]) continue;
+            float d = 0;
+            main_tree.nearest_point(unit_mesh.vertices.row(v).transpose().cast<float>(), &d);
+            if (double(d) > options.blister_k * st.scale) blister[r] = false;
+        }
+        for (Eigen::Index v = 0; v < V0; ++v)
+            if (total[static_cast<std::size_t>(v)] > 0 && v != largest && keep_root[static_cast<std::size_t>(v)] && blister[static_cast<std::size_t>(v)]) {
+                keep_root[static_cast<std::size_t>(v)] = false;
+                ++st.removed_components;
+                ++st.removed_blisters;
+            }
     }
     Mesh mesh;
     std::vector<std::int32_t> remap(static_cast<std::size_t>(V0), -1);

@@ -85,15 +85,54 @@ TEST_CASE("surface fit: a supported component smaller than the sampling scale is
     CHECK(st.removed_components == 1);
     CHECK(st.removed_small == 1);
     CHECK(out.faces.rows() == F);
-    // With the rule off (min_extent_k 0) it stays; the largest component is never removed for its size.
+    // With the rule off (min_extent_k 0) it is still a blister on the sphere (the test below); with
+    // both rules off it stays. The largest component is never removed for its size.
     o.min_extent_k = 0;
-    CHECK(pcp::fit_surface_to_points(both, tree, o, &st).faces.rows() == F + 8);
+    CHECK(pcp::fit_surface_to_points(both, tree, o, &st).faces.rows() == F);
     CHECK(st.removed_small == 0);
+    CHECK(st.removed_blisters == 1);
+    o.blister_k = 0;
+    CHECK(pcp::fit_surface_to_points(both, tree, o, &st).faces.rows() == F + 8);
+    CHECK(st.removed_blisters == 0);
     o.min_extent_k = 100;  // every component "small": the largest stays
     CHECK(pcp::fit_surface_to_points(both, tree, o, &st).faces.rows() == F);
     CHECK(st.removed_small == 1);
     o.min_extent_k = -1;
     CHECK_THROWS_WITH(pcp::fit_surface_to_points(both, tree, o), Catch::Contains("min_extent_k"));
+}
+
+TEST_CASE("surface fit: a component lying on the largest within the sampling scale is removed, one standing off it kept", "[surface_fit]") {
+    const pcp::Mesh sphere = mesh_of(sphere_sdf({0, 0, 0}, 0.3), 64);
+    const pcp::KdTree tree(sphere_points(6000, 0.3, 3));
+    // A flat closed octahedron (half-axes a along x, 0.03 along y and z) centred on the sphere's
+    // surface at x = 0.3: larger than the sampling scale, among the points. Flat (a = 0.004): a
+    // blister, every vertex within the scale of the sphere's; standing out (a = 0.08): kept.
+    auto with_octahedron = [&](double a) {
+        pcp::Mesh both = sphere;
+        const Eigen::Index V = sphere.vertices.rows(), F = sphere.faces.rows();
+        both.vertices.conservativeResize(V + 6, 3);
+        both.faces.conservativeResize(F + 8, 3);
+        const double offsets[6][3] = {{a, 0, 0}, {-a, 0, 0}, {0, 0.03, 0}, {0, -0.03, 0}, {0, 0, 0.03}, {0, 0, -0.03}};
+        for (int k = 0; k < 6; ++k) both.vertices.row(V + k) = Eigen::RowVector3d(0.3 + offsets[k][0], offsets[k][1], offsets[k][2]);
+        const int tris[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+        for (int k = 0; k < 8; ++k)
+            for (int j = 0; j < 3; ++j) both.faces(F + k, j) = static_cast<int>(V) + tris[k][j];
+        return both;
+    };
+    pcp::SurfaceFitOptions o;
+    o.iterations = 0;
+    pcp::SurfaceFitStats st;
+    const pcp::Mesh flat = pcp::fit_surface_to_points(with_octahedron(0.004), tree, o, &st);
+    INFO("sampling scale " << st.scale);
+    REQUIRE(0.06 > st.scale);  // not small
+    CHECK(st.removed_small == 0);
+    CHECK(st.removed_blisters == 1);
+    CHECK(flat.faces.rows() == sphere.faces.rows());
+    const pcp::Mesh standing = pcp::fit_surface_to_points(with_octahedron(0.08), tree, o, &st);
+    CHECK(st.removed_components == 0);
+    CHECK(standing.faces.rows() == sphere.faces.rows() + 8);
+    o.blister_k = -1;
+    CHECK_THROWS_WITH(pcp::fit_surface_to_points(sphere, tree, o), Catch::Contains("blister_k"));
 }
 
 TEST_CASE("surface fit: a rippled sphere is brought onto its points, topology unchanged", "[surface_fit]") {

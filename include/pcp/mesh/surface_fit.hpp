@@ -13,7 +13,9 @@
 //     whose supported vertices are fewer than min_supported of its vertices
 //     has no data under it and is removed. So is a component (not the largest) whose bounding box's
 //     diagonal is under min_extent_k x scale: a few points' worth of surface, a bubble or a sliver
-//     of the field along a sharp edge, no shape the data can resolve. Nothing else is removed.
+//     of the field along a sharp edge, no shape the data can resolve. So is a component (not the
+//     largest) whose every vertex lies within blister_k x scale of the largest one's vertices: a
+//     blister, a second sheet where the largest already has the surface. Nothing else is removed.
 //  2. Normal mean-shift, `iterations` times. For each supported vertex v with unit normal n (area
 //     weighted, averaged over its one-ring) take its `neighbors` nearest input points p_i, their
 //     offsets o_i = (p_i - v) . n and distances d_i, h = the largest d_i and b = bandwidth x the
@@ -41,6 +43,7 @@ struct SurfaceFitOptions {
     double support_k = 0.8;       ///< support radius in units of the sampling scale (0.8: about 3 spacings of an even sampling)
     double min_supported = 0.1;   ///< a component with fewer supported vertices than this fraction is removed
     double min_extent_k = 1.0;    ///< a component (not the largest) whose bounding-box diagonal is under this x scale is removed
+    double blister_k = 1.0;       ///< a component (not the largest) within this x scale of the largest everywhere is removed (0: never)
     double move_k = 1.5;          ///< a vertex moves only when an input point lies within move_k x scale
     int iterations = 10;          ///< normal mean-shift + relaxation rounds (0: support filter only)
     /// Input points per vertex (>= 3). Measured on the shared cases (docs/BENCHMARKS.md): 16 on
@@ -62,6 +65,7 @@ struct SurfaceFitStats {
     std::int64_t components = 0;          ///< connected components before the filter
     std::int64_t removed_components = 0;  ///< removed by the support filter (with the small ones)
     std::int64_t removed_small = 0;       ///< of which smaller than min_extent_k x scale
+    std::int64_t removed_blisters = 0;    ///< of which lying within blister_k x scale of the largest
     std::int64_t removed_faces = 0;
     std::int64_t supported_vertices = 0;  ///< vertices within move_k x scale of the data (those the last round moved)
     double mean_shift = 0;                ///< mean |m| of the last round (unit-box units)
