@@ -35,6 +35,28 @@ struct Piece {
     int chi_change = 0;
 };
 
+/// Cell c of the cubical complex in doubled coordinates (see closing_pieces): (-1)^dim (its
+/// dimension is its number of even coordinates), and in `*in` whether a sample of `set` has a
+/// closed cube holding it (the samples (i, j, k) with |2i - c_x| <= 1, per axis).
+int cell_sign(const Lattice& L, const std::vector<std::uint8_t>& set, const int c[3], bool* in) {
+    int dim = 0;
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+        if (c[a] % 2 == 0) {
+            ++dim;
+            lo[a] = hi[a] = c[a] / 2;
+        } else {
+            lo[a] = (c[a] - 1) / 2;
+            hi[a] = (c[a] + 1) / 2;
+        }
+    }
+    *in = false;
+    for (int k = lo[2]; k <= hi[2] && !*in; ++k)
+        for (int j = lo[1]; j <= hi[1] && !*in; ++j)
+            for (int i = lo[0]; i <= hi[0] && !*in; ++i) *in = L.at(set, i, j, k);
+    return dim % 2 == 0 ? 1 : -1;
+}
+
 std::vector<Piece> closing_pieces(const Lattice& L, const std::vector<std::uint8_t>& set) {
     const int R = L.R, n1 = L.n1;
     const std::int64_t total = L.total, n1s = L.n1s;
@@ -102,23 +124,9 @@ std::vector<Piece> closing_pieces(const Lattice& L, const std::vector<std::uint8
         int chi_a = 0, chi_contact = 0;
         for (std::int64_t key : cells) {
             const int c[3] = {int(key % M) - 1, int((key / M) % M) - 1, int(key / (M * M)) - 1};
-            int dim = 0;
-            int lo[3], hi[3];  // the samples whose closed cube holds the cell, per axis
-            for (int a = 0; a < 3; ++a) {
-                if (c[a] % 2 == 0) {
-                    ++dim;
-                    lo[a] = hi[a] = c[a] / 2;
-                } else {
-                    lo[a] = (c[a] - 1) / 2;
-                    hi[a] = (c[a] + 1) / 2;
-                }
-            }
-            const int sign = dim % 2 == 0 ? 1 : -1;
-            chi_a += sign;
             bool touches = false;
-            for (int z = lo[2]; z <= hi[2] && !touches; ++z)
-                for (int y = lo[1]; y <= hi[1] && !touches; ++y)
-                    for (int x = lo[0]; x <= hi[0] && !touches; ++x) touches = L.at(set, x, y, z);
+            const int sign = cell_sign(L, set, c, &touches);
+            chi_a += sign;
             if (touches) chi_contact += sign;
         }
         piece.chi_change = chi_a - chi_contact;
@@ -233,21 +241,9 @@ int solid_euler_characteristic(const SdfGrid& grid) {
         for (int y = -1; y <= hi; ++y)
             for (int x = -1; x <= hi; ++x) {
                 const int c[3] = {x, y, z};
-                int lo_s[3], hi_s[3], dim = 0;
-                for (int a = 0; a < 3; ++a) {
-                    if (c[a] % 2 == 0) {
-                        ++dim;
-                        lo_s[a] = hi_s[a] = c[a] / 2;
-                    } else {
-                        lo_s[a] = (c[a] - 1) / 2;
-                        hi_s[a] = (c[a] + 1) / 2;
-                    }
-                }
                 bool in = false;
-                for (int k = lo_s[2]; k <= hi_s[2] && !in; ++k)
-                    for (int j = lo_s[1]; j <= hi_s[1] && !in; ++j)
-                        for (int i = lo_s[0]; i <= hi_s[0] && !in; ++i) in = L.at(inside, i, j, k);
-                if (in) chi += dim % 2 == 0 ? 1 : -1;
+                const int sign = cell_sign(L, inside, c, &in);
+                if (in) chi += sign;
             }
     return static_cast<int>(chi);
 }
