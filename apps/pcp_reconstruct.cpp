@@ -21,12 +21,21 @@
 #include "pcp/cloud/shapes.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
 
 namespace {
+
+/// The value of an on | off option when given (true: on); a usage error naming it otherwise.
+std::optional<bool> on_off(const cxxopts::ParseResult& args, const std::string& name) {
+    if (!args.count(name)) return std::nullopt;
+    const std::string v = args[name].as<std::string>();
+    if (v != "on" && v != "off") throw pcp::cli::UsageError("--" + name + " must be on or off (got '" + v + "')");
+    return v == "on";
+}
 
 struct BuiltinShapeOptions {
     long points = 20000;    ///< points sampled on the default shape
@@ -446,21 +455,13 @@ int main(int argc, char** argv) {
         if (args.count("denoise-mode-width")) o.denoise.mode_width = args["denoise-mode-width"].as<double>();
         if (!(o.denoise.mode_width >= 0) || !std::isfinite(o.denoise.mode_width))
             throw pcp::cli::UsageError("--denoise-mode-width must be a finite number >= 0");
-        if (args.count("stop-rule")) {
-            const std::string v = args["stop-rule"].as<std::string>();
-            if (v != "on" && v != "off") throw pcp::cli::UsageError("--stop-rule must be on or off (got '" + v + "')");
-            o.fit.stop.enabled = v == "on";
-        }
+        if (const auto on = on_off(args, "stop-rule")) o.fit.stop.enabled = *on;
         if (args.count("stop-tolerance")) o.fit.stop.tolerance = args["stop-tolerance"].as<double>();
         if (!(o.fit.stop.tolerance >= 0.0 && o.fit.stop.tolerance < 1.0))
             throw pcp::cli::UsageError("--stop-tolerance must be in [0, 1)");
         if (args.count("stop-min-steps")) o.fit.stop.min_steps = args["stop-min-steps"].as<long>();
         if (o.fit.stop.min_steps < 0) throw pcp::cli::UsageError("--stop-min-steps must be >= 0");
-        if (args.count("sign-repair")) {
-            const std::string v = args["sign-repair"].as<std::string>();
-            if (v != "on" && v != "off") throw pcp::cli::UsageError("--sign-repair must be on or off (got '" + v + "')");
-            o.sign_repair.enabled = v == "on";
-        }
+        if (const auto on = on_off(args, "sign-repair")) o.sign_repair.enabled = *on;
         {
             const std::string v = args["grid-precision"].as<std::string>();
             if (v != "fp32" && v != "training")
@@ -470,18 +471,10 @@ int main(int argc, char** argv) {
         if (args.count("sign-repair-resolution")) o.sign_repair.resolution = args["sign-repair-resolution"].as<int>();
         if (o.sign_repair.resolution < 2 || o.sign_repair.resolution > 256)
             throw pcp::cli::UsageError("--sign-repair-resolution must be in [2, 256]");
-        if (args.count("sign-guide")) {
-            const std::string v = args["sign-guide"].as<std::string>();
-            if (v != "on" && v != "off") throw pcp::cli::UsageError("--sign-guide must be on or off (got '" + v + "')");
-            o.fit.sign_guide.enabled = v == "on";
-        }
+        if (const auto on = on_off(args, "sign-guide")) o.fit.sign_guide.enabled = *on;
         if (args.count("label-votes")) o.sign_repair.min_label_votes = args["label-votes"].as<int>();
         if (o.sign_repair.min_label_votes < 0) throw pcp::cli::UsageError("--label-votes must be >= 0");
-        if (args.count("winding-sign")) {
-            const std::string v = args["winding-sign"].as<std::string>();
-            if (v != "on" && v != "off") throw pcp::cli::UsageError("--winding-sign must be on or off (got '" + v + "')");
-            o.winding_sign.enabled = v == "on";
-        }
+        if (const auto on = on_off(args, "winding-sign")) o.winding_sign.enabled = *on;
         if (args.count("winding-near")) o.winding_sign.near_k = args["winding-near"].as<double>();
         if (!(o.winding_sign.near_k >= 0 && o.winding_sign.near_k <= 100))
             throw pcp::cli::UsageError("--winding-near must be in [0, 100]");
@@ -490,26 +483,10 @@ int main(int argc, char** argv) {
             if (v != "auto" && v != "on" && v != "off") throw pcp::cli::UsageError("--smooth must be auto, on or off (got '" + v + "')");
             if (v != "auto") o.smoothing.noisy = o.smoothing.clean = v == "on";
         }
-        if (args.count("cavity-fill")) {
-            const std::string v = args["cavity-fill"].as<std::string>();
-            if (v != "on" && v != "off") throw pcp::cli::UsageError("--cavity-fill must be on or off (got '" + v + "')");
-            o.cavity_fill.enabled = v == "on";
-        }
-        if (args.count("fine-repair")) {
-            const std::string v = args["fine-repair"].as<std::string>();
-            if (v != "on" && v != "off") throw pcp::cli::UsageError("--fine-repair must be on or off (got '" + v + "')");
-            o.fine_repair.enabled = v == "on";
-        }
-        if (args.count("tunnel-fill")) {
-            const std::string v = args["tunnel-fill"].as<std::string>();
-            if (v != "on" && v != "off") throw pcp::cli::UsageError("--tunnel-fill must be on or off (got '" + v + "')");
-            o.tunnel_fill.enabled = v == "on";
-        }
-        if (args.count("bridge-cut")) {
-            const std::string v = args["bridge-cut"].as<std::string>();
-            if (v != "on" && v != "off") throw pcp::cli::UsageError("--bridge-cut must be on or off (got '" + v + "')");
-            o.tunnel_fill.cut_bridges = v == "on";
-        }
+        if (const auto on = on_off(args, "cavity-fill")) o.cavity_fill.enabled = *on;
+        if (const auto on = on_off(args, "fine-repair")) o.fine_repair.enabled = *on;
+        if (const auto on = on_off(args, "tunnel-fill")) o.tunnel_fill.enabled = *on;
+        if (const auto on = on_off(args, "bridge-cut")) o.tunnel_fill.cut_bridges = *on;
         if (args.count("mc-ambiguity")) {
             const std::string v = args["mc-ambiguity"].as<std::string>();
             if (v == "join") o.marching_cubes.ambiguity = pcp::McAmbiguity::JoinInside;
@@ -517,16 +494,8 @@ int main(int argc, char** argv) {
             else if (v == "separate") o.marching_cubes.ambiguity = pcp::McAmbiguity::SeparateInside;
             else throw pcp::cli::UsageError("--mc-ambiguity must be join, decider or separate (got '" + v + "')");
         }
-        if (args.count("shell-centre")) {
-            const std::string v = args["shell-centre"].as<std::string>();
-            if (v != "on" && v != "off") throw pcp::cli::UsageError("--shell-centre must be on or off (got '" + v + "')");
-            o.shell_centre.enabled = v == "on";
-        }
-        if (args.count("surface-fit")) {
-            const std::string v = args["surface-fit"].as<std::string>();
-            if (v != "on" && v != "off") throw pcp::cli::UsageError("--surface-fit must be on or off (got '" + v + "')");
-            o.surface_fit.enabled = v == "on";
-        }
+        if (const auto on = on_off(args, "shell-centre")) o.shell_centre.enabled = *on;
+        if (const auto on = on_off(args, "surface-fit")) o.surface_fit.enabled = *on;
         if (args.count("surface-fit-iterations")) o.surface_fit.iterations = args["surface-fit-iterations"].as<int>();
         if (o.surface_fit.iterations < 0 || o.surface_fit.iterations > 100)
             throw pcp::cli::UsageError("--surface-fit-iterations must be in [0, 100]");

@@ -26,6 +26,30 @@ struct Lattice {
     }
 };
 
+/// Flood fill over 26-neighbours from `start` (marked in `seen` by the caller) through the samples
+/// for which passable(index) holds and `seen` is clear: each reached sample is marked in `seen`
+/// and passed to visit(index), `start` included.
+template <class Passable, class Visit>
+void flood_26(const Lattice& L, std::int64_t start, std::vector<std::uint8_t>& seen, Passable&& passable, Visit&& visit) {
+    std::vector<std::int64_t> stack(1, start);
+    while (!stack.empty()) {
+        const std::int64_t g = stack.back();
+        stack.pop_back();
+        visit(g);
+        const int i = int(g % L.n1), j = int((g / L.n1) % L.n1), k = int(g / L.n1s);
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const int a = i + dx, b = j + dy, c = k + dz;
+                    if (a < 0 || b < 0 || c < 0 || a > L.R || b > L.R || c > L.R) continue;
+                    const std::size_t h = L.index(a, b, c);
+                    if (seen[h] || !passable(h)) continue;
+                    seen[h] = 1;
+                    stack.push_back(static_cast<std::int64_t>(h));
+                }
+    }
+}
+
 /// The samples outside `set` that its closing by the 3 x 3 x 3 cube adds (dilation, then erosion;
 /// outside the lattice counts as outside `set`), in connected pieces (26-neighbours), each with the
 /// change of the Euler characteristic of the union of the closed cells of `set` when the piece
@@ -88,31 +112,13 @@ std::vector<Piece> closing_pieces(const Lattice& L, const std::vector<std::uint8
     // cell's dimension is its number of even coordinates.
     const std::int64_t M = 2 * std::int64_t(R) + 3;  // doubled coordinates -1 .. 2R + 1, stored + 1
     std::vector<std::uint8_t> seen(static_cast<std::size_t>(total), 0);
-    std::vector<std::int64_t> stack;
     std::unordered_set<std::int64_t> cells;
     std::vector<Piece> pieces;
     for (std::int64_t g0 = 0; g0 < total; ++g0) {
         if (!added[static_cast<std::size_t>(g0)] || seen[static_cast<std::size_t>(g0)]) continue;
         Piece piece;
-        stack.assign(1, g0);
         seen[static_cast<std::size_t>(g0)] = 1;
-        while (!stack.empty()) {
-            const std::int64_t g = stack.back();
-            stack.pop_back();
-            piece.members.push_back(g);
-            const int i = int(g % n1), j = int((g / n1) % n1), k = int(g / n1s);
-            for (int dz = -1; dz <= 1; ++dz)
-                for (int dy = -1; dy <= 1; ++dy)
-                    for (int dx = -1; dx <= 1; ++dx) {
-                        const int a = i + dx, b = j + dy, c = k + dz;
-                        if (!L.at(added, a, b, c)) continue;
-                        const std::size_t h = L.index(a, b, c);
-                        if (!seen[h]) {
-                            seen[h] = 1;
-                            stack.push_back(static_cast<std::int64_t>(h));
-                        }
-                    }
-        }
+        flood_26(L, g0, seen, [&](std::size_t h) { return added[h] != 0; }, [&](std::int64_t g) { piece.members.push_back(g); });
         cells.clear();
         for (std::int64_t g : piece.members) {
             const std::int64_t i = g % n1, j = (g / n1) % n1, k = g / n1s;
@@ -170,23 +176,8 @@ bool inside_stays_connected(const Lattice& L, const std::vector<std::uint8_t>& i
     }
     if (rim.empty()) return true;
     std::vector<std::uint8_t> reached(static_cast<std::size_t>(L.total), 0);
-    std::vector<std::int64_t> stack(1, rim.front());
     reached[static_cast<std::size_t>(rim.front())] = 1;
-    while (!stack.empty()) {
-        const std::int64_t g = stack.back();
-        stack.pop_back();
-        const int i = int(g % L.n1), j = int((g / L.n1) % L.n1), k = int(g / L.n1s);
-        for (int dz = -1; dz <= 1; ++dz)
-            for (int dy = -1; dy <= 1; ++dy)
-                for (int dx = -1; dx <= 1; ++dx) {
-                    const int a = i + dx, b = j + dy, c = k + dz;
-                    if (!L.at(inside, a, b, c)) continue;
-                    const std::size_t h = L.index(a, b, c);
-                    if (blocked[h] || reached[h]) continue;
-                    reached[h] = 1;
-                    stack.push_back(static_cast<std::int64_t>(h));
-                }
-    }
+    flood_26(L, rim.front(), reached, [&](std::size_t h) { return inside[h] && !blocked[h]; }, [](std::int64_t) {});
     for (std::int64_t g : rim)
         if (!reached[static_cast<std::size_t>(g)]) return false;
     return true;
