@@ -242,8 +242,7 @@ int main(int argc, char** argv) {
              cxxopts::value<int>()->default_value(std::to_string(d.denoise.neighbors)))
             ("denoise-mode-width", "0: --denoise projects onto the plane; W > 0: moves each point along the plane's "
                                    "normal to the mode of its neighbours' heights nearest its own (kernel W x the cloud's "
-                                   "noise), keeping the two sides of a thin part apart (measured, not the default: "
-                                   "docs/BENCHMARKS.md)",
+                                   "noise), keeping the two sides of a thin part apart (docs/BENCHMARKS.md)",
              cxxopts::value<double>()->default_value(fmt(d.denoise.mode_width)));
         options.add_options("Self-prior (stage 1 learned on the input, --self-prior; any of these implies --prior-source self)")
             ("prior-epochs", "Self-prior epochs (passes over the input's regions)", cxxopts::value<int>()->default_value(std::to_string(d.self_prior.epochs)))

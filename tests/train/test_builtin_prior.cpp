@@ -99,6 +99,9 @@ TEST_CASE("reconstruct: the built-in prior frozen or tuned, a self-prior, and au
     CHECK(pcp::ReconstructOptions::preset("scene").prior_source == pcp::PriorSource::SelfPrior);
     CHECK(pcp::ReconstructOptions::preset("default").prior_tune_steps == 300);
     CHECK(pcp::ReconstructOptions::preset("paper").prior_source == pcp::PriorSource::SelfPrior);
+    // The default denoises a noisy cloud to each point's own side; scenes were measured with the plane.
+    CHECK(pcp::ReconstructOptions::preset("default").denoise.mode_width == 2.0);
+    CHECK(pcp::ReconstructOptions::preset("scene").denoise.mode_width == 0.0);
 
     const pcp::Points clean = pcp::sample_sphere(12000, 0.4, Eigen::Vector3d::Zero(), 4).points;
     pcp::ReconstructOptions o = pcp::ReconstructOptions::preset("fast");

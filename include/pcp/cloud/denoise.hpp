@@ -25,10 +25,10 @@ struct DenoiseOptions {
     /// heights along that normal nearest to the point's own height (mean shift from the point,
     /// Gaussian kernel of width mode_width x sigma, sigma the cloud's noise: the median over its
     /// points of the heights' median absolute deviation x 1.4826), so the other side's points,
-    /// a thickness away, carry little weight. Measured with 2 on the 11 noisy shared cases
-    /// (docs/BENCHMARKS.md, "Denoising to the point's own side of a thin part"), one seed each: lower
-    /// L2-CD on 8 of the 10 ABC scans, by less than the seeds' spread on abc_00010074, and worse on
-    /// abc_00010089 over two seeds (x 1.7-1.9), so not the default.
+    /// a thickness away, carry little weight. The `default` preset uses 2 (src/pipeline/presets.cpp):
+    /// measured over three seeds on the 11 noisy shared cases (docs/BENCHMARKS.md, "The own-side
+    /// denoiser as the default"; an earlier pipeline, one seed each: "Denoising to the point's own
+    /// side of a thin part"). 0 here, so that the function's default is the plain projection.
     double mode_width = 0.0;
 };
 
