@@ -234,8 +234,9 @@ int main(int argc, char** argv) {
             ("resume", "Continue the query-network stage from OUT.ckpt")
             ("builtin-points", "Points sampled on the embedded default shape", cxxopts::value<long>()->default_value(std::to_string(builtin_defaults.points)))
             ("builtin-noise", "Noise of the embedded default shape", cxxopts::value<double>()->default_value(fmt(builtin_defaults.noise)))
-            ("denoise", "Denoise the input first: passes of projecting each point onto the plane of its nearest "
-                        "neighbours (0 = off), or auto (3 passes if the cloud is noisy: pcp::noise_ratio > 0.25); "
+            ("denoise", "Denoise the input first: passes of moving each point onto the plane of its nearest "
+                        "neighbours, or to its own side's mode (--denoise-mode-width) (0 = off), or auto (" +
+                            std::to_string(d.denoise.auto_passes) + " passes if the cloud is noisy: pcp::noise_ratio > 0.25); "
                         "not in the paper; helps noisy scans, thins thin parts of clean ones",
              cxxopts::value<std::string>()->default_value(d.denoise.automatic ? "auto" : std::to_string(d.denoise.passes)))
             ("denoise-neighbors", "Neighbours per plane fit of --denoise (3..256)",
