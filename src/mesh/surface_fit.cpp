@@ -148,6 +148,7 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
         if (total[static_cast<std::size_t>(v)] > 0 && (largest < 0 || total[static_cast<std::size_t>(v)] > total[static_cast<std::size_t>(largest)]))
             largest = v;
     std::vector<bool> keep_root(static_cast<std::size_t>(V0), false);
+    bool others = false;  // a component other than the largest is kept
     for (Eigen::Index v = 0; v < V0; ++v) {
         if (total[static_cast<std::size_t>(v)] == 0) continue;
         ++st.components;
@@ -160,12 +161,11 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
         }
         keep_root[static_cast<std::size_t>(v)] = keep;
         if (!keep) ++st.removed_components;
+        others = others || (keep && v != largest);
     }
     // A kept component (not the largest) whose every vertex lies within blister_k x scale of the
     // largest one's vertices is a blister on it: a second sheet of surface the largest already
     // has where the data is.
-    bool others = false;
-    for (Eigen::Index v = 0; v < V0 && !others; ++v) others = v != largest && total[static_cast<std::size_t>(v)] > 0 && keep_root[static_cast<std::size_t>(v)];
     if (others && options.blister_k > 0) {
         std::vector<Eigen::Index> main_vertices;
         std::vector<bool> blister(static_cast<std::size_t>(V0), true);
