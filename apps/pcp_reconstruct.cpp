@@ -343,6 +343,10 @@ int main(int argc, char** argv) {
              cxxopts::value<std::string>()->default_value(d.surface_fit.enabled ? "on" : "off"))
             ("surface-fit-iterations", "Rounds of the surface fit's move onto the data (0: the component filter only)",
              cxxopts::value<int>()->default_value(std::to_string(d.surface_fit.iterations)))
+            ("recentre", "auto | on | off: before the surface fit, move the mesh onto the middle of the input points' "
+                         "noise, averaged over a few sampling scales (auto: when the cloud was denoised, that is noisy; "
+                         "not in the paper; include/pcp/mesh/surface_fit.hpp)",
+             cxxopts::value<std::string>()->default_value("auto"))
             ("smooth", "auto | on | off: bilateral smoothing of the final mesh (auto: when the cloud was denoised, that is "
                        "noisy; not in the paper; include/pcp/mesh/smooth.hpp)",
              cxxopts::value<std::string>()->default_value("auto"))
@@ -482,6 +486,11 @@ int main(int argc, char** argv) {
             const std::string v = args["smooth"].as<std::string>();
             if (v != "auto" && v != "on" && v != "off") throw pcp::cli::UsageError("--smooth must be auto, on or off (got '" + v + "')");
             if (v != "auto") o.smoothing.noisy = o.smoothing.clean = v == "on";
+        }
+        if (args.count("recentre")) {
+            const std::string v = args["recentre"].as<std::string>();
+            if (v != "auto" && v != "on" && v != "off") throw pcp::cli::UsageError("--recentre must be auto, on or off (got '" + v + "')");
+            if (v != "auto") o.recentre.noisy = o.recentre.clean = v == "on";
         }
         if (const auto on = on_off(args, "cavity-fill")) o.cavity_fill.enabled = *on;
         if (const auto on = on_off(args, "fine-repair")) o.fine_repair.enabled = *on;
@@ -623,6 +632,12 @@ int main(int argc, char** argv) {
               << " on average, unit box)";
             shell_text = t.str();
         }
+        std::string recentre_text;  // the recentring, where it ran (a noisy cloud by default)
+        if (report.recentre.applied) {
+            std::ostringstream t;
+            t << ", recentred (noise spread " << report.recentre.spread << ", mean move " << report.recentre.mean_move << ", unit box)";
+            recentre_text = t.str();
+        }
         std::ostringstream s;
         s << "wrote " << output << ": " << mesh.vertices.rows() << " vertices, " << mesh.faces.rows() << " faces, "
           << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "")
@@ -663,6 +678,7 @@ int main(int argc, char** argv) {
                   ? ", bridge cut " + std::to_string(report.bridge_cut.cut) + " of " + std::to_string(report.bridge_cut.candidates) + " thin pieces"
                   : std::string())
           << shell_text
+          << recentre_text
           << ", surface fit removed " << report.surface_fit.removed_components << " of " << report.surface_fit.components
           << " components (no input points near them" +
                  (report.surface_fit.removed_small > 0 ? ", or " + std::to_string(report.surface_fit.removed_small) + " smaller than the sampling scale" : std::string()) +

@@ -95,6 +95,7 @@ struct ReconstructOptions {
     /// the repairs' solid").
     MarchingCubesOptions marching_cubes{McAmbiguity::JoinInside};
     ShellCentreOptions shell_centre; ///< noisy clouds: the surface in the middle of the noise band's shell, not on its outer wall (not in the paper)
+    RecentreOptions recentre;        ///< the mesh onto the middle of the raw points' noise before the fit, of noisy clouds by default (not in the paper)
     SurfaceFitOptions surface_fit;   ///< support filter and fit of the mesh onto the data (not in the paper)
     SmoothOptions smoothing;         ///< bilateral smoothing of the final mesh, of noisy clouds by default (not in the paper)
     SceneOptions scene;              ///< open surfaces where the data ends (rooms); off except in the "scene" preset
@@ -129,6 +130,7 @@ struct ReconstructOptions {
 
 struct ReconstructReport {
     double seconds_denoise = 0, seconds_prior = 0, seconds_fit = 0, seconds_grid = 0, seconds_mesh = 0;
+    RecentreStats recentre;          ///< whether the recentring ran, the noise's spread and the mean move
     SurfaceFitStats surface_fit;     ///< what the surface fit removed and moved
     bool smoothed = false;           ///< the final mesh was smoothed (SmoothOptions: noisy for a denoised cloud, else clean)
     FineRepairStats fine_repair;     ///< what the fine sign repair flipped

@@ -81,6 +81,7 @@ ReconstructOptions ReconstructOptions::preset(const std::string& name) {
         o = preset("default");
         o.prior_source = PriorSource::SelfPrior;  // measured on rooms with a self-prior only
         o.denoise.mode_width = 0;  // and with the plane projection
+        o.recentre.noisy = false;  // and without the recentring (not measured on rooms)
         // A room's detail is spread over a large area at 512 cells: keep up to a million points
         // (the 200,000 of the other presets were measured on objects).
         o.max_fit_points = 1000000;

@@ -360,7 +360,13 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // A denoised cloud's mesh is fitted to the input points as given (SurfaceFitOptions::noisy_raw_points).
     std::unique_ptr<KdTree> raw_tree;
     if (r.denoise_passes > 0 && fit_options.noisy_raw_points) raw_tree = std::make_unique<KdTree>(cloud.normalization().to_unit(all_points));
-    const Mesh fitted_mesh = fit_surface_to_points(mc_mesh, raw_tree ? *raw_tree : cloud.tree(), fit_options, &r.surface_fit);
+    const KdTree& fit_cloud = raw_tree ? *raw_tree : cloud.tree();
+    // Onto the middle of the noise before the fit (RecentreOptions; noisy clouds by default).
+    if (r.denoise_passes > 0 ? options.recentre.noisy : options.recentre.clean) {
+        mc_mesh = recentre_on_points(mc_mesh, fit_cloud, options.recentre, &r.recentre);
+        r.recentre.applied = true;
+    }
+    const Mesh fitted_mesh = fit_surface_to_points(mc_mesh, fit_cloud, fit_options, &r.surface_fit);
     PCP_CHECK(fitted_mesh.faces.rows() > 0, "reconstruction produced no surface near the input points (every piece of "
                                             "the fitted SDF's zero set lies away from the data)");
     // The noise's bumps that the fit onto noisy data keeps (include/pcp/mesh/smooth.hpp).

@@ -105,6 +105,10 @@ TEST_CASE("reconstruct: the built-in prior frozen or tuned, a self-prior, and au
     // Objects are fitted on at most 200,000 points, scenes on up to a million.
     CHECK(pcp::ReconstructOptions::preset("default").max_fit_points == 200000);
     CHECK(pcp::ReconstructOptions::preset("scene").max_fit_points == 1000000);
+    // Noisy objects' meshes are recentred onto the noise's middle; rooms were measured without.
+    CHECK(pcp::ReconstructOptions::preset("default").recentre.noisy);
+    CHECK_FALSE(pcp::ReconstructOptions::preset("default").recentre.clean);
+    CHECK_FALSE(pcp::ReconstructOptions::preset("scene").recentre.noisy);
 
     const pcp::Points clean = pcp::sample_sphere(12000, 0.4, Eigen::Vector3d::Zero(), 4).points;
     pcp::ReconstructOptions o = pcp::ReconstructOptions::preset("fast");
