@@ -372,7 +372,7 @@ TEST_CASE("recentre: a sheet farther from the points than their noise is not mov
     CHECK(mean_radius(moved) > mean_radius(near) + 0.003);
 }
 
-TEST_CASE("recentre: a surface on clean points stays where it is; bad options throw", "[surface_fit]") {
+TEST_CASE("recentre: a surface on clean points stays where it is, and bad options throw", "[surface_fit]") {
     const double R = 0.3;
     const pcp::Mesh mesh = mesh_of(sphere_sdf({0, 0, 0}, R), 48);
     const pcp::KdTree tree(sphere_points(8000, R, 3));
