@@ -333,7 +333,7 @@ TEST_CASE("cli: pcp_reconstruct's surface-fit and fine-repair options: bad value
     CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
 }
 
-TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, shell-centre, smooth, winding-sign, sign-guide and label-votes options: bad values exit 2 naming the flag", "[cli]") {
+TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, shell-centre, recentre, smooth, winding-sign, sign-guide and label-votes options: bad values exit 2 naming the flag", "[cli]") {
     const struct {
         const char* args;
         const char* message;
@@ -342,6 +342,7 @@ TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, shell-centre, smooth
         {"--tunnel-fill maybe", "--tunnel-fill must be on or off (got 'maybe')"},
         {"--bridge-cut maybe", "--bridge-cut must be on or off (got 'maybe')"},
         {"--shell-centre 2", "--shell-centre must be on or off (got '2')"},
+        {"--recentre yes", "--recentre must be auto, on or off (got 'yes')"},
         {"--smooth maybe", "--smooth must be auto, on or off (got 'maybe')"},
         {"--winding-sign 1", "--winding-sign must be on or off (got '1')"},
         {"--winding-near -3", "--winding-near must be in [0, 100]"},
@@ -355,7 +356,7 @@ TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, shell-centre, smooth
         CHECK(r.err.find(c.message) != std::string::npos);
     }
     // Good values pass the option checks: the run then stops at the missing input, naming it.
-    const RunResult good = run(bin("pcp_reconstruct") + " --cavity-fill off --tunnel-fill off --bridge-cut off --shell-centre off --smooth on --winding-sign on --winding-near 1 --sign-guide on --label-votes 4 /nonexistent/x.ply -o '" +
+    const RunResult good = run(bin("pcp_reconstruct") + " --cavity-fill off --tunnel-fill off --bridge-cut off --shell-centre off --recentre on --smooth on --winding-sign on --winding-near 1 --sign-guide on --label-votes 4 /nonexistent/x.ply -o '" +
                                (case_dir("cavity_fill") / "o.ply").string() + "'");
     INFO("stderr: " << good.err);
     CHECK(good.exit_code == 1);

@@ -384,18 +384,17 @@ TEST_CASE("recentre: a surface on clean points stays where it is, and bad option
     CHECK(out.faces == mesh.faces);
     // Nothing to do on an empty mesh.
     CHECK(pcp::recentre_on_points(pcp::Mesh{}, tree).vertices.rows() == 0);
-    pcp::RecentreOptions bad;
-    bad.window_k = 0;
-    CHECK_THROWS_AS(pcp::recentre_on_points(mesh, tree, bad), pcp::Error);
-    bad = {};
-    bad.passes = 0;
-    CHECK_THROWS_AS(pcp::recentre_on_points(mesh, tree, bad), pcp::Error);
-    bad = {};
-    bad.clip_k = std::numeric_limits<double>::quiet_NaN();
-    CHECK_THROWS_AS(pcp::recentre_on_points(mesh, tree, bad), pcp::Error);
-    bad = {};
-    bad.max_move_k = -1;
-    CHECK_THROWS_AS(pcp::recentre_on_points(mesh, tree, bad), pcp::Error);
+    // Each bad option alone throws.
+    const auto throws_with = [&](void (*spoil)(pcp::RecentreOptions&)) {
+        pcp::RecentreOptions bad;
+        spoil(bad);
+        CHECK_THROWS_AS(pcp::recentre_on_points(mesh, tree, bad), pcp::Error);
+    };
+    throws_with([](pcp::RecentreOptions& o) { o.window_k = 0; });
+    throws_with([](pcp::RecentreOptions& o) { o.passes = 0; });
+    throws_with([](pcp::RecentreOptions& o) { o.passes = 21; });
+    throws_with([](pcp::RecentreOptions& o) { o.clip_k = std::numeric_limits<double>::quiet_NaN(); });
+    throws_with([](pcp::RecentreOptions& o) { o.max_move_k = -1; });
     pcp::Mesh broken = mesh;
     broken.faces(0, 0) = static_cast<std::int32_t>(mesh.vertices.rows());
     CHECK_THROWS_AS(pcp::recentre_on_points(broken, tree), pcp::Error);
