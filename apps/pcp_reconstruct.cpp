@@ -37,6 +37,16 @@ std::optional<bool> on_off(const cxxopts::ParseResult& args, const std::string& 
     return v == "on";
 }
 
+/// The value of an auto | on | off option when given as on or off (true: on); nothing for auto or
+/// when absent; a usage error naming it otherwise.
+std::optional<bool> auto_on_off(const cxxopts::ParseResult& args, const std::string& name) {
+    if (!args.count(name)) return std::nullopt;
+    const std::string v = args[name].as<std::string>();
+    if (v != "auto" && v != "on" && v != "off") throw pcp::cli::UsageError("--" + name + " must be auto, on or off (got '" + v + "')");
+    if (v == "auto") return std::nullopt;
+    return v == "on";
+}
+
 struct BuiltinShapeOptions {
     long points = 20000;    ///< points sampled on the default shape
     double noise = 0.002;   ///< Gaussian noise (shape units; the shape is about 1 long)
@@ -482,16 +492,8 @@ int main(int argc, char** argv) {
         if (args.count("winding-near")) o.winding_sign.near_k = args["winding-near"].as<double>();
         if (!(o.winding_sign.near_k >= 0 && o.winding_sign.near_k <= 100))
             throw pcp::cli::UsageError("--winding-near must be in [0, 100]");
-        if (args.count("smooth")) {
-            const std::string v = args["smooth"].as<std::string>();
-            if (v != "auto" && v != "on" && v != "off") throw pcp::cli::UsageError("--smooth must be auto, on or off (got '" + v + "')");
-            if (v != "auto") o.smoothing.noisy = o.smoothing.clean = v == "on";
-        }
-        if (args.count("recentre")) {
-            const std::string v = args["recentre"].as<std::string>();
-            if (v != "auto" && v != "on" && v != "off") throw pcp::cli::UsageError("--recentre must be auto, on or off (got '" + v + "')");
-            if (v != "auto") o.recentre.noisy = o.recentre.clean = v == "on";
-        }
+        if (const auto on = auto_on_off(args, "smooth")) o.smoothing.noisy = o.smoothing.clean = *on;
+        if (const auto on = auto_on_off(args, "recentre")) o.recentre.noisy = o.recentre.clean = *on;
         if (const auto on = on_off(args, "cavity-fill")) o.cavity_fill.enabled = *on;
         if (const auto on = on_off(args, "fine-repair")) o.fine_repair.enabled = *on;
         if (const auto on = on_off(args, "tunnel-fill")) o.tunnel_fill.enabled = *on;

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <vector>
 
 namespace pcp {
@@ -41,6 +42,10 @@ public:
     PointsF points;
     PointsAdaptor adaptor;
     Tree tree;
+    // sampling_scale(tree), measured once: every mesh stage asks for it, and at a million points
+    // it is a second of 11-nearest-neighbour queries.
+    std::once_flag scale_once;
+    double scale = 0;
 };
 
 KdTree::KdTree(const Eigen::Ref<const PointsF>& points) {
@@ -124,12 +129,17 @@ Eigen::VectorXf KdTree::kth_distance(const Eigen::Ref<const PointsF>& queries, i
     return result;
 }
 
-double sampling_scale(const KdTree& tree) {
-    if (tree.size() < 2) return 0;
-    Eigen::VectorXf d = tree.kth_distance(tree.points(), static_cast<int>(std::min<Eigen::Index>(11, tree.size())));
-    float* mid = d.data() + d.size() / 2;
-    std::nth_element(d.data(), mid, d.data() + d.size());
-    return static_cast<double>(*mid);
+double KdTree::sampling_scale() const {
+    std::call_once(impl_->scale_once, [this] {
+        if (size() < 2) return;
+        Eigen::VectorXf d = kth_distance(points(), static_cast<int>(std::min<Eigen::Index>(11, size())));
+        float* mid = d.data() + d.size() / 2;
+        std::nth_element(d.data(), mid, d.data() + d.size());
+        impl_->scale = static_cast<double>(*mid);
+    });
+    return impl_->scale;
 }
+
+double sampling_scale(const KdTree& tree) { return tree.sampling_scale(); }
 
 }  // namespace pcp

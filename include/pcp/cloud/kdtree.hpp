@@ -45,6 +45,9 @@ public:
     /// Distance from each row of `queries` to its k-th nearest point (k = 1: the nearest).
     Eigen::VectorXf kth_distance(const Eigen::Ref<const PointsF>& queries, int k) const;
 
+    /// pcp::sampling_scale of this tree, measured on the first call and kept (thread-safe).
+    double sampling_scale() const;
+
 private:
     class Impl;
     std::unique_ptr<Impl> impl_;
