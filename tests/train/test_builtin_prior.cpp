@@ -102,6 +102,10 @@ TEST_CASE("reconstruct: the built-in prior frozen or tuned, a self-prior, and au
     // The default denoises a noisy cloud to each point's own side; scenes were measured with the plane.
     CHECK(pcp::ReconstructOptions::preset("default").denoise.mode_width == 2.0);
     CHECK(pcp::ReconstructOptions::preset("scene").denoise.mode_width == 0.0);
+    // Two passes of the own-side mode; scenes keep the plane's three, `fast` too.
+    CHECK(pcp::ReconstructOptions::preset("default").denoise.auto_passes == 2);
+    CHECK(pcp::ReconstructOptions::preset("scene").denoise.auto_passes == 3);
+    CHECK(pcp::ReconstructOptions::preset("fast").denoise.auto_passes == 3);
     // Objects are fitted on at most 200,000 points, scenes on up to a million.
     CHECK(pcp::ReconstructOptions::preset("default").max_fit_points == 200000);
     CHECK(pcp::ReconstructOptions::preset("scene").max_fit_points == 1000000);

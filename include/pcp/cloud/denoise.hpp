@@ -17,7 +17,7 @@ struct DenoiseOptions {
     int neighbors = 20;           ///< k, including the point itself (3..256, and at most the number of points)
     bool automatic = false;       ///< passes = auto_passes if noise_ratio > auto_threshold, else 0
     double auto_threshold = 0.25;
-    int auto_passes = 3;
+    int auto_passes = 3;          ///< (the default preset: 2, with the own-side mode; presets.cpp)
     /// The move along the plane's normal (not in the paper). 0: onto the neighbours' plane, which
     /// on a part thinner than the neighbourhood also fits the other side's points and pulls both
     /// sides toward the middle (abc_00010074, a plate 0.056 thick: the denoised cloud 0.0047 inside
