@@ -102,6 +102,8 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
     PCP_CHECK(options.neighbors >= 3 && options.noisy_neighbors >= 3, "surface fit: neighbors and noisy_neighbors must be >= 3");
     PCP_CHECK(options.bandwidth > 0, "surface fit: bandwidth must be > 0");
     PCP_CHECK(options.relax >= 0 && options.relax <= 1, "surface fit: relax must be in [0, 1]");
+    PCP_CHECK(options.noise_spread >= 0 && std::isfinite(options.noise_spread) && options.far_side_k >= 0 && std::isfinite(options.far_side_k),
+              "surface fit: noise_spread and far_side_k must be finite and >= 0");
     PCP_CHECK(cloud.size() >= 2, "surface fit: the cloud needs at least two points");
     const Eigen::Index V0 = unit_mesh.vertices.rows();
     if (unit_mesh.faces.rows() > 0)
@@ -222,6 +224,11 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
     for (int it = 0; it < options.iterations; ++it) {
         const Points normals = vertex_normals(mesh, ring);
         cloud.knn(mesh.vertices.cast<float>(), K, idx, dist);
+        // The vertex each input point is nearest to (for the far-side cut; SurfaceFitOptions::noise_spread).
+        const bool cut_far_side = options.noise_spread > 0;
+        const double far_gap = options.far_side_k * options.noise_spread;
+        IndexVector owner;
+        if (cut_far_side) owner = KdTree(mesh.vertices.cast<float>()).nearest(pts);
         Points moved = mesh.vertices;
         double shift_sum = 0;
         std::int64_t count = 0;
@@ -238,6 +245,10 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
             for (int round = 0; round < 8; ++round) {
                 double sw = 0, so = 0, soo = 0, sww = 0;
                 for (int j = 0; j < K; ++j) {
+                    if (cut_far_side) {  // a point of the far side of a thin part
+                        const Eigen::Index u = owner(idx(v, j));
+                        if (normals.row(u).dot(n) < 0 && (mesh.vertices.row(v) - mesh.vertices.row(u)).dot(n) > far_gap) continue;
+                    }
                     const Eigen::RowVector3d p = pts.row(idx(v, j)).cast<double>();
                     const double o = (p - mesh.vertices.row(v)).dot(n);
                     const double dj = dist(v, j) / h, oj = (o - m) / b;

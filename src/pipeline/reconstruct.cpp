@@ -365,6 +365,8 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     if (r.denoise_passes > 0 ? options.recentre.noisy : options.recentre.clean) {
         mc_mesh = recentre_on_points(mc_mesh, fit_cloud, options.recentre, &r.recentre);
         r.recentre.applied = true;
+        // The fit then leaves out the far side of thin parts, by the spread measured here (SurfaceFitOptions::noise_spread).
+        if (fit_options.noise_spread == 0) fit_options.noise_spread = r.recentre.spread;
     }
     const Mesh fitted_mesh = fit_surface_to_points(mc_mesh, fit_cloud, fit_options, &r.surface_fit);
     PCP_CHECK(fitted_mesh.faces.rows() > 0, "reconstruction produced no surface near the input points (every piece of "

@@ -1,5 +1,6 @@
 // Tests for pcp/mesh/surface_fit.hpp: a component with no data near it is removed and the rest kept
 // intact; so is a supported one smaller than the sampling scale (never the largest); a rippled sphere is brought onto its points; the two sides of a thin slab stay apart;
+// on a noisy plate the far side's points are left out of a side's fit (not on a bar as thick as its noise);
 // topology is unchanged; disabled is the identity; bad options throw. The recentring brings a
 // surface lying inside noisy points (a sphere, both sides of a thin slab) onto their middle and
 // leaves a clean one where it is.
@@ -185,6 +186,76 @@ TEST_CASE("surface fit: the two sides of a thin slab stay apart", "[surface_fit]
     CHECK(worst < 0.25 * h);
 }
 
+namespace {
+
+/// Both broad faces of a plate of half-thickness h (half sizes 0.35, 0.35), points on a 0.01 grid
+/// with normal noise of deviation sigma along z, and the mean |z| of a mesh's broad-face vertices.
+pcp::PointsF noisy_plate_points(double h, double sigma, std::uint64_t seed) {
+    pcp::Rng rng(seed);
+    Eigen::Index n = 0;
+    pcp::PointsF pts(2 * 71 * 71, 3);
+    for (int side = 0; side < 2; ++side)
+        for (int i = 0; i < 71; ++i)
+            for (int j = 0; j < 71; ++j)
+                pts.row(n++) << static_cast<float>(-0.35 + 0.01 * i), static_cast<float>(-0.35 + 0.01 * j),
+                    static_cast<float>((side ? h : -h) + rng.normal(0.0, sigma));
+    return pts;
+}
+
+double mean_broad_face_z(const pcp::Mesh& m) {
+    double s = 0;
+    int c = 0;
+    for (Eigen::Index v = 0; v < m.vertices.rows(); ++v) {
+        const Eigen::RowVector3d p = m.vertices.row(v);
+        if (std::abs(p.x()) < 0.25 && std::abs(p.y()) < 0.25) {
+            s += std::abs(p.z());
+            ++c;
+        }
+    }
+    return s / std::max(c, 1);
+}
+
+ScalarSdf plate_sdf(double h) {
+    return [h](const Eigen::Vector3d& p) {
+        const Eigen::Vector3d q = p.cwiseAbs() - Eigen::Vector3d(0.35, 0.35, h);
+        return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+    };
+}
+
+}  // namespace
+
+TEST_CASE("surface fit: the far side of a noisy plate does not pull a side inward, a bar as thick as its noise is left alone",
+          "[surface_fit][heavy]") {
+    // A plate of half-thickness 0.02 under noise of deviation 0.01 (its sides 4 deviations apart;
+    // their points overlap, as on the scanned plate abc_00010074), the mesh on the true sides: the
+    // fit's mode over a noisy cloud's 32 neighbours drifts toward the far side unless the points
+    // nearest to the far side are left out.
+    const double h = 0.02, sigma = 0.01;
+    const pcp::Mesh mesh = mesh_of(plate_sdf(h), 120);
+    const pcp::KdTree tree(noisy_plate_points(h, sigma, 5));
+    pcp::SurfaceFitOptions o;
+    o.neighbors = o.noisy_neighbors;
+    const pcp::Mesh pulled = pcp::fit_surface_to_points(mesh, tree, o);
+    o.noise_spread = sigma;
+    const pcp::Mesh kept = pcp::fit_surface_to_points(mesh, tree, o);
+    INFO("mean |z| of the broad faces: fitted " << mean_broad_face_z(pulled) << ", fitted without the far side "
+                                                << mean_broad_face_z(kept) << " (sides at " << h << ")");
+    CHECK(h - mean_broad_face_z(pulled) > 0.0005);
+    CHECK(std::abs(h - mean_broad_face_z(kept)) < 0.5 * (h - mean_broad_face_z(pulled)));
+    // Sides 2.4 deviations apart, under far_side_k = 3: cutting there would truncate each side's
+    // own noise, so the broad faces come out where the fit without the cut puts them.
+    const double hb = 0.012;
+    const pcp::Mesh bar = mesh_of(plate_sdf(hb), 120);
+    const pcp::KdTree bar_tree(noisy_plate_points(hb, sigma, 6));
+    pcp::SurfaceFitOptions ob;
+    ob.neighbors = ob.noisy_neighbors;
+    const double plain = mean_broad_face_z(pcp::fit_surface_to_points(bar, bar_tree, ob));
+    ob.noise_spread = sigma;
+    const double same = mean_broad_face_z(pcp::fit_surface_to_points(bar, bar_tree, ob));
+    INFO("bar: mean |z| " << plain << " without the cut, " << same << " with it");
+    CHECK(std::abs(same - plain) < 2e-5);
+}
+
 TEST_CASE("surface fit: disabled is the identity, bad options throw", "[surface_fit]") {
     const pcp::Mesh mesh = mesh_of(sphere_sdf({0, 0, 0}, 0.3), 24);
     const pcp::KdTree tree(sphere_points(500, 0.3, 1));
@@ -202,6 +273,12 @@ TEST_CASE("surface fit: disabled is the identity, bad options throw", "[surface_
     bad = {};
     bad.min_supported = -0.1;
     CHECK_THROWS_AS(pcp::fit_surface_to_points(mesh, tree, bad), pcp::Error);
+    bad = {};
+    bad.noise_spread = -0.01;
+    CHECK_THROWS_WITH(pcp::fit_surface_to_points(mesh, tree, bad), Catch::Contains("noise_spread"));
+    bad = {};
+    bad.far_side_k = std::numeric_limits<double>::quiet_NaN();
+    CHECK_THROWS_WITH(pcp::fit_surface_to_points(mesh, tree, bad), Catch::Contains("far_side_k"));
     pcp::Mesh broken = mesh;
     broken.faces(0, 0) = static_cast<std::int32_t>(mesh.vertices.rows());
     CHECK_THROWS_AS(pcp::fit_surface_to_points(broken, tree, {}), pcp::Error);

@@ -59,6 +59,18 @@ struct SurfaceFitOptions {
     double bandwidth = 1.0;       ///< the offset kernel's width, in units of the vertex's distance to its 10th nearest point
     double relax = 0.5;           ///< tangential relaxation per round, in [0, 1]
     bool shrink = true;           ///< scale each move m by max(0, 1 - se^2 / m^2), se the standard error of the mean offset
+    /// The far side of a thin part left out (not in the paper): with noise_spread > 0, every round
+    /// assigns each input point to its nearest mesh vertex, and a vertex's mean shift skips the
+    /// neighbours assigned to a vertex whose normal faces the other way and that lies more than
+    /// far_side_k x noise_spread behind it along its normal. Within the noise the two sides' points
+    /// overlap (a plate whose thickness is a few deviations of its noise) and the far side's pull
+    /// the mode inward; nearer than that (a bar about as thick as its noise) the cut would
+    /// truncate each side's own noise and push the surface out, so it is left alone there.
+    /// pcp::reconstruct passes the spread the recentring measured (RecentreStats::spread; noisy
+    /// clouds); 0 = off. Measured (docs/BENCHMARKS.md, "The fit without the far side of a thin
+    /// part"): k = 3 against no cut and against k = 0.
+    double noise_spread = 0;      ///< the noise's spread, in the cloud's units (>= 0; 0: off)
+    double far_side_k = 3.0;      ///< (>= 0)
 };
 
 struct SurfaceFitStats {
