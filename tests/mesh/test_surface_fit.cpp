@@ -401,33 +401,10 @@ TEST_CASE("recentre: both sides of a thin slab under noise as wide as a quarter 
     // A plate of half-thickness 0.03 with noise of deviation 0.015 along z (the two sides' points
     // overlap, as on the scanned plate abc_00010074), its mesh 0.008 too thin on each side.
     const double h = 0.03, sigma = 0.015, thin = 0.008;
-    const ScalarSdf slab = [&](const Eigen::Vector3d& p) {
-        const Eigen::Vector3d q = p.cwiseAbs() - Eigen::Vector3d(0.35, 0.35, h - thin);
-        return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
-    };
-    const pcp::Mesh mesh = mesh_of(slab, 120);
-    pcp::Rng rng(11);
-    Eigen::Index n = 0;
-    pcp::PointsF pts(2 * 71 * 71, 3);
-    for (int side = 0; side < 2; ++side)
-        for (int i = 0; i < 71; ++i)
-            for (int j = 0; j < 71; ++j)
-                pts.row(n++) << static_cast<float>(-0.35 + 0.01 * i), static_cast<float>(-0.35 + 0.01 * j),
-                    static_cast<float>((side ? h : -h) + rng.normal(0.0, sigma));
-    const pcp::Mesh out = pcp::recentre_on_points(mesh, pcp::KdTree(pts));
+    const pcp::Mesh mesh = mesh_of(plate_sdf(h - thin), 120);
+    const pcp::Mesh out = pcp::recentre_on_points(mesh, pcp::KdTree(noisy_plate_points(h, sigma, 11)));
     // The broad faces, away from the rim: the mean |z| of their vertices.
-    auto mean_side = [](const pcp::Mesh& m) {
-        double s = 0;
-        int c = 0;
-        for (Eigen::Index v = 0; v < m.vertices.rows(); ++v) {
-            const Eigen::RowVector3d p = m.vertices.row(v);
-            if (std::abs(p.x()) < 0.25 && std::abs(p.y()) < 0.25) {
-                s += std::abs(p.z());
-                ++c;
-            }
-        }
-        return s / std::max(c, 1);
-    };
+    const auto mean_side = mean_broad_face_z;
     INFO("mean |z| of the broad faces before " << mean_side(mesh) << ", after " << mean_side(out) << " (the sides at " << h << ")");
     CHECK(std::abs(mean_side(mesh) - h) > 0.0075);
     CHECK(std::abs(mean_side(out) - h) < 0.002);
