@@ -69,6 +69,12 @@ Points vertex_normals(const Mesh& mesh, const OneRing& ring) {
     return s;
 }
 
+/// For each point, the mesh vertex nearest to it (the recentring's assignment, and the fit's for
+/// the far-side cut).
+IndexVector nearest_vertex(const Mesh& mesh, const PointsF& points) {
+    return KdTree(mesh.vertices.cast<float>()).nearest(points);
+}
+
 }  // namespace
 
 Mesh offset_along_normals(const Mesh& mesh, double distance) {
@@ -221,58 +227,69 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
     const PointsF& pts = cloud.points();
     NeighborIndices idx;
     NeighborDistances dist;
+    // The far-side cut (SurfaceFitOptions::noise_spread): off without a spread.
+    const bool cut_far_side = options.noise_spread > 0;
+    const double far_gap = options.far_side_k * options.noise_spread;
     for (int it = 0; it < options.iterations; ++it) {
         const Points normals = vertex_normals(mesh, ring);
         cloud.knn(mesh.vertices.cast<float>(), K, idx, dist);
-        // The vertex each input point is nearest to (for the far-side cut; SurfaceFitOptions::noise_spread).
-        const bool cut_far_side = options.noise_spread > 0;
-        const double far_gap = options.far_side_k * options.noise_spread;
-        IndexVector owner;
-        if (cut_far_side) owner = KdTree(mesh.vertices.cast<float>()).nearest(pts);
+        const IndexVector owner = cut_far_side ? nearest_vertex(mesh, pts) : IndexVector();
         Points moved = mesh.vertices;
         double shift_sum = 0;
         std::int64_t count = 0;
-#pragma omp parallel for schedule(static) reduction(+ : shift_sum, count)
-        for (Eigen::Index v = 0; v < V; ++v) {
-            const Eigen::RowVector3d n = normals.row(v);
-            if (dist(v, 0) > reach || n.squaredNorm() == 0) continue;
-            const double h = std::max<double>(dist(v, K - 1), 1e-12);
-            // The offset kernel's width follows the local sampling (10th neighbour), not the
-            // neighbourhood: a wider neighbourhood averages more noise without reaching across
-            // a thin part.
-            const double b = options.bandwidth * std::max<double>(dist(v, std::min(K, 10) - 1), 1e-12);
-            double m = 0, se2 = 0;
-            for (int round = 0; round < 8; ++round) {
-                double sw = 0, so = 0, soo = 0, sww = 0;
+#pragma omp parallel reduction(+ : shift_sum, count)
+        {
+            // Per neighbour kept: its offset along the normal and its distance over h, which the
+            // kernel's rounds reuse.
+            std::vector<double> offsets(static_cast<std::size_t>(K)), scaled(static_cast<std::size_t>(K));
+#pragma omp for schedule(static)
+            for (Eigen::Index v = 0; v < V; ++v) {
+                const Eigen::RowVector3d n = normals.row(v);
+                if (dist(v, 0) > reach || n.squaredNorm() == 0) continue;
+                const double h = std::max<double>(dist(v, K - 1), 1e-12);
+                // The offset kernel's width follows the local sampling (10th neighbour), not the
+                // neighbourhood: a wider neighbourhood averages more noise without reaching across
+                // a thin part.
+                const double b = options.bandwidth * std::max<double>(dist(v, std::min(K, 10) - 1), 1e-12);
+                std::size_t kept = 0;
                 for (int j = 0; j < K; ++j) {
                     if (cut_far_side) {  // a point of the far side of a thin part
                         const Eigen::Index u = owner(idx(v, j));
                         if (normals.row(u).dot(n) < 0 && (mesh.vertices.row(v) - mesh.vertices.row(u)).dot(n) > far_gap) continue;
                     }
                     const Eigen::RowVector3d p = pts.row(idx(v, j)).cast<double>();
-                    const double o = (p - mesh.vertices.row(v)).dot(n);
-                    const double dj = dist(v, j) / h, oj = (o - m) / b;
-                    const double w = std::exp(-dj * dj - oj * oj);
-                    sw += w;
-                    sww += w * w;
-                    so += w * o;
-                    soo += w * o * o;
+                    offsets[kept] = (p - mesh.vertices.row(v)).dot(n);
+                    scaled[kept] = dist(v, j) / h;
+                    ++kept;
                 }
-                if (!(sw > 1e-300)) break;
-                const double next = so / sw;
-                // Squared standard error of the weighted mean: variance / effective count.
-                se2 = std::max(0.0, soo / sw - next * next) * sww / (sw * sw);
-                const bool done = std::abs(next - m) < 1e-4 * h;
-                m = next;
-                if (done) break;
+                double m = 0, se2 = 0;
+                for (int round = 0; round < 8; ++round) {
+                    double sw = 0, so = 0, soo = 0, sww = 0;
+                    for (std::size_t j = 0; j < kept; ++j) {
+                        const double o = offsets[j];
+                        const double dj = scaled[j], oj = (o - m) / b;
+                        const double w = std::exp(-dj * dj - oj * oj);
+                        sw += w;
+                        sww += w * w;
+                        so += w * o;
+                        soo += w * o * o;
+                    }
+                    if (!(sw > 1e-300)) break;
+                    const double next = so / sw;
+                    // Squared standard error of the weighted mean: variance / effective count.
+                    se2 = std::max(0.0, soo / sw - next * next) * sww / (sw * sw);
+                    const bool done = std::abs(next - m) < 1e-4 * h;
+                    m = next;
+                    if (done) break;
+                }
+                // Shrink a move the data cannot tell from its own noise (none on clean data).
+                if (options.shrink && m != 0) m *= std::max(0.0, 1.0 - se2 / (m * m));
+                m = std::clamp(m, -h, h);
+                moved.row(v) += m * n;
+                shift_sum += std::abs(m);
+                ++count;
             }
-            // Shrink a move the data cannot tell from its own noise (none on clean data).
-            if (options.shrink && m != 0) m *= std::max(0.0, 1.0 - se2 / (m * m));
-            m = std::clamp(m, -h, h);
-            moved.row(v) += m * n;
-            shift_sum += std::abs(m);
-            ++count;
-        }
+        }  // omp parallel
         st.mean_shift = count ? shift_sum / static_cast<double>(count) : 0.0;
         st.supported_vertices = count;
         mesh.vertices = moved;
@@ -325,8 +342,7 @@ Mesh recentre_on_points(const Mesh& unit_mesh, const KdTree& cloud, const Recent
     std::vector<double> sum(Vs), count(Vs), sum_next(Vs), count_next(Vs);
     for (int pass = 0; pass < options.passes; ++pass) {
         const Points normals = vertex_normals(mesh, ring);
-        const KdTree vertex_tree(mesh.vertices.cast<float>());
-        const IndexVector nearest = vertex_tree.nearest(pts);
+        const IndexVector nearest = nearest_vertex(mesh, pts);
 #pragma omp parallel for schedule(static)
         for (Eigen::Index i = 0; i < N; ++i) {
             const Eigen::Index v = nearest(i);
