@@ -360,6 +360,9 @@ int main(int argc, char** argv) {
             ("smooth", "auto | on | off: bilateral smoothing of the final mesh (auto: when the cloud was denoised, that is "
                        "noisy; not in the paper; include/pcp/mesh/smooth.hpp)",
              cxxopts::value<std::string>()->default_value("auto"))
+            ("fair", "on | off: place the surface where no input point lies under it as the smoothest surface that "
+                     "joins the supported rest (not in the paper; off in the scene mode; include/pcp/mesh/surface_fit.hpp)",
+             cxxopts::value<std::string>()->default_value(d.fairing.enabled ? "on" : "off"))
             ("keep-checkpoint", "Keep OUT.ckpt (the finished query network) and OUT.ckpt.prior, so that a run with --resume "
                                 "re-meshes without training again");
         options.parse_positional({"input"});
@@ -507,6 +510,7 @@ int main(int argc, char** argv) {
         }
         if (const auto on = on_off(args, "shell-centre")) o.shell_centre.enabled = *on;
         if (const auto on = on_off(args, "surface-fit")) o.surface_fit.enabled = *on;
+        if (const auto on = on_off(args, "fair")) o.fairing.enabled = *on;
         if (args.count("surface-fit-iterations")) o.surface_fit.iterations = args["surface-fit-iterations"].as<int>();
         if (o.surface_fit.iterations < 0 || o.surface_fit.iterations > 100)
             throw pcp::cli::UsageError("--surface-fit-iterations must be in [0, 100]");
@@ -686,6 +690,10 @@ int main(int argc, char** argv) {
                  (report.surface_fit.removed_small > 0 ? ", or " + std::to_string(report.surface_fit.removed_small) + " smaller than the sampling scale" : std::string()) +
                  (report.surface_fit.removed_blisters > 0 ? ", or " + std::to_string(report.surface_fit.removed_blisters) + " lying on the largest within a sampling scale" : std::string()) +
                  ")" << (report.smoothed ? ", smoothed" : "")
+          << (report.fairing.free_vertices + report.fairing.unanchored > 0
+                  ? ", faired " + std::to_string(report.fairing.free_vertices) + " vertices with no data under them in " +
+                        std::to_string(report.fairing.patches) + " patches"
+                  : std::string())
           << (o.scene.enabled ? ", scene mode removed " + std::to_string(report.scene_trimmed) + " faces with no data near them"
                               : std::string());
         log.info(s.str());

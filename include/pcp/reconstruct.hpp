@@ -98,6 +98,7 @@ struct ReconstructOptions {
     RecentreOptions recentre;        ///< the mesh onto the middle of the raw points' noise before the fit, of noisy clouds by default (not in the paper)
     SurfaceFitOptions surface_fit;   ///< support filter and fit of the mesh onto the data (not in the paper)
     SmoothOptions smoothing;         ///< bilateral smoothing of the final mesh, of noisy clouds by default (not in the paper)
+    FairOptions fairing;             ///< the surface where no data lies under it faired onto the supported rest, last (not in the paper; off in the scene mode)
     SceneOptions scene;              ///< open surfaces where the data ends (rooms); off except in the "scene" preset
     /// The oriented normals of the input points, when asked for (not in the paper): read off the
     /// final mesh at the nearest point (Mesh), the PCA normals oriented by it (PcaByMesh), or the
@@ -133,6 +134,7 @@ struct ReconstructReport {
     RecentreStats recentre;          ///< whether the recentring ran, the noise's spread and the mean move
     SurfaceFitStats surface_fit;     ///< what the surface fit removed and moved
     bool smoothed = false;           ///< the final mesh was smoothed (SmoothOptions: noisy for a denoised cloud, else clean)
+    FairStats fairing;               ///< the vertices the fairing placed (all 0: none, or the scene mode)
     FineRepairStats fine_repair;     ///< what the fine sign repair flipped
     CavityFillStats cavity_fill;     ///< what the cavity fill negated
     TunnelFillStats tunnel_fill;     ///< what the tunnel fill plugged

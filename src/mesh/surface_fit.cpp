@@ -5,6 +5,7 @@
 #include "pcp/core/error.hpp"
 
 #include <Eigen/Geometry>
+#include <Eigen/SparseCholesky>
 
 #include <algorithm>
 #include <cmath>
@@ -445,6 +446,138 @@ Mesh trim_unsupported_faces(const Mesh& unit_mesh, const KdTree& cloud, double r
             out.faces(static_cast<Eigen::Index>(k), c) = new_index[static_cast<std::size_t>(unit_mesh.faces(kept_faces[k], c))];
     if (removed) *removed = F - static_cast<std::int64_t>(kept_faces.size());
     return out;
+}
+
+Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOptions& options, FairStats* stats) {
+    PCP_CHECK(options.support_k > 0 && std::isfinite(options.support_k), "fairing: support_k must be > 0, got " << options.support_k);
+    const Eigen::Index V = unit_mesh.vertices.rows();
+    PCP_CHECK(unit_mesh.faces.rows() == 0 || (unit_mesh.faces.minCoeff() >= 0 && unit_mesh.faces.maxCoeff() < V),
+              "fairing: a face index is out of range");
+    FairStats st;
+    Mesh mesh = unit_mesh;
+    if (!options.enabled || V == 0 || unit_mesh.faces.rows() == 0) {
+        if (stats) *stats = st;
+        return mesh;
+    }
+    const OneRing ring(mesh);
+    const auto degree = [&](std::size_t v) { return static_cast<double>(ring.start[v + 1] - ring.start[v]); };
+    // Free: no input point within the support radius (and on some face).
+    const double radius = options.support_k * sampling_scale(cloud);
+    Eigen::VectorXf nearest;
+    cloud.nearest(mesh.vertices.cast<float>(), &nearest);
+    std::vector<char> loose(static_cast<std::size_t>(V), 0);
+    for (Eigen::Index v = 0; v < V; ++v)
+        loose[static_cast<std::size_t>(v)] = static_cast<double>(nearest(v)) > radius && degree(static_cast<std::size_t>(v)) > 0;
+    // Patches of free vertices joined along edges; those that touch no supported vertex stay put.
+    std::vector<std::int32_t> parent(static_cast<std::size_t>(V));
+    std::iota(parent.begin(), parent.end(), 0);
+    for (Eigen::Index v = 0; v < V; ++v) {
+        const auto vs = static_cast<std::size_t>(v);
+        if (!loose[vs]) continue;
+        for (std::int64_t e = ring.start[vs]; e < ring.start[vs + 1]; ++e) {
+            const std::int32_t u = ring.ids[static_cast<std::size_t>(e)];
+            if (loose[static_cast<std::size_t>(u)]) parent[static_cast<std::size_t>(find_root(parent, u))] = find_root(parent, static_cast<std::int32_t>(v));
+        }
+    }
+    std::vector<char> anchored(static_cast<std::size_t>(V), 0), is_root(static_cast<std::size_t>(V), 0);
+    for (Eigen::Index v = 0; v < V; ++v) {
+        const auto vs = static_cast<std::size_t>(v);
+        if (!loose[vs]) continue;
+        const std::int32_t r = find_root(parent, static_cast<std::int32_t>(v));
+        is_root[static_cast<std::size_t>(r)] = 1;
+        for (std::int64_t e = ring.start[vs]; e < ring.start[vs + 1]; ++e)
+            if (!loose[static_cast<std::size_t>(ring.ids[static_cast<std::size_t>(e)])]) anchored[static_cast<std::size_t>(r)] = 1;
+    }
+    std::vector<std::int32_t> var(static_cast<std::size_t>(V), -1);
+    std::int32_t n_free = 0;
+    for (Eigen::Index v = 0; v < V; ++v) {
+        const auto vs = static_cast<std::size_t>(v);
+        if (!loose[vs]) continue;
+        if (anchored[static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)))]) var[vs] = n_free++;
+        else ++st.unanchored;
+    }
+    for (Eigen::Index v = 0; v < V; ++v)
+        if (is_root[static_cast<std::size_t>(v)] && anchored[static_cast<std::size_t>(v)]) ++st.patches;
+    st.free_vertices = n_free;
+    if (n_free == 0) {
+        if (stats) *stats = st;
+        return mesh;
+    }
+    // The cotangent Laplacian L (L_ij = (cot a + cot b) / 2 along an edge, the angles facing it,
+    // clipped to [0.01, 1000] x their mean so that slivers of the marching cubes neither cut nor
+    // dominate; L_ii = -sum_j L_ij) and the vertex areas A (a third of the faces'): the bi-Laplacian
+    // L A^-1 L is the mesh's thin-plate energy whatever its triangles' shapes (the graph Laplacian
+    // of a raw marching-cubes sphere flattened an unsupported cap twice as much).
+    std::vector<double> weight(ring.ids.size(), 0.0);
+    Eigen::VectorXd area = Eigen::VectorXd::Zero(V);
+    const auto slot = [&](std::int32_t a, std::int32_t b) {  // position of b in a's sorted one-ring
+        const auto first = ring.ids.begin() + ring.start[static_cast<std::size_t>(a)];
+        const auto last = ring.ids.begin() + ring.start[static_cast<std::size_t>(a) + 1];
+        return static_cast<std::size_t>(std::lower_bound(first, last, b) - ring.ids.begin());
+    };
+    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
+        const Eigen::RowVector3d p0 = mesh.vertices.row(mesh.faces(f, 0)), p1 = mesh.vertices.row(mesh.faces(f, 1)),
+                                 p2 = mesh.vertices.row(mesh.faces(f, 2));
+        const double twice_area = (p1 - p0).cross(p2 - p0).norm();
+        for (int k = 0; k < 3; ++k) {
+            const std::int32_t a = mesh.faces(f, k), b = mesh.faces(f, (k + 1) % 3), c = mesh.faces(f, (k + 2) % 3);
+            area(a) += twice_area / 6;
+            if (b == c) continue;
+            const Eigen::RowVector3d u = mesh.vertices.row(b) - mesh.vertices.row(a), w = mesh.vertices.row(c) - mesh.vertices.row(a);
+            const double half_cot = 0.5 * u.dot(w) / std::max(u.cross(w).norm(), 1e-300);
+            weight[slot(b, c)] += half_cot;
+            weight[slot(c, b)] += half_cot;
+        }
+    }
+    double mean_weight = 0;
+    for (double w : weight) mean_weight += std::abs(w);
+    mean_weight = std::max(mean_weight / static_cast<double>(std::max<std::size_t>(weight.size(), 1)), 1e-300);
+    for (double& w : weight) w = std::clamp(w, 0.01 * mean_weight, 1000 * mean_weight);
+    const double area_floor = 1e-6 * std::max(area.mean(), 1e-300);
+    Eigen::VectorXd diagonal = Eigen::VectorXd::Zero(V);  // L_ii
+    for (Eigen::Index v = 0; v < V; ++v)
+        for (std::int64_t e = ring.start[static_cast<std::size_t>(v)]; e < ring.start[static_cast<std::size_t>(v) + 1]; ++e)
+            diagonal(v) -= weight[static_cast<std::size_t>(e)];
+    // The rows of L A^-1 L of the free vertices: sum over k = i and the one-ring of i of L_ik L_kj / A_k.
+    // Free columns form the (symmetric, positive definite) system, fixed ones its right-hand side.
+    std::vector<Eigen::Triplet<double>> triplets;
+    Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(n_free, 3);
+    const auto add = [&](std::int32_t row, std::int32_t col, double value) {
+        const std::int32_t c = var[static_cast<std::size_t>(col)];
+        if (c >= 0) triplets.emplace_back(row, c, value);
+        else rhs.row(row) -= value * mesh.vertices.row(col);
+    };
+    const auto add_row_of_k = [&](std::int32_t row, std::int32_t k, double factor) {  // factor x row k of L
+        add(row, k, factor * diagonal(k));
+        for (std::int64_t e = ring.start[static_cast<std::size_t>(k)]; e < ring.start[static_cast<std::size_t>(k) + 1]; ++e)
+            add(row, ring.ids[static_cast<std::size_t>(e)], factor * weight[static_cast<std::size_t>(e)]);
+    };
+    for (Eigen::Index v = 0; v < V; ++v) {
+        const auto vs = static_cast<std::size_t>(v);
+        const std::int32_t row = var[vs];
+        if (row < 0) continue;
+        add_row_of_k(row, static_cast<std::int32_t>(v), diagonal(v) / std::max(area(v), area_floor));
+        for (std::int64_t e = ring.start[vs]; e < ring.start[vs + 1]; ++e) {
+            const std::int32_t k = ring.ids[static_cast<std::size_t>(e)];
+            add_row_of_k(row, k, weight[static_cast<std::size_t>(e)] / std::max(area(k), area_floor));
+        }
+    }
+    Eigen::SparseMatrix<double> system(n_free, n_free);
+    system.setFromTriplets(triplets.begin(), triplets.end());
+    const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(system);
+    PCP_CHECK(solver.info() == Eigen::Success, "fairing: the factorisation of " << n_free << " free vertices failed");
+    const Eigen::MatrixXd x = solver.solve(rhs);
+    PCP_CHECK(solver.info() == Eigen::Success && x.allFinite(), "fairing: the solve for " << n_free << " free vertices failed");
+    double moved = 0;
+    for (Eigen::Index v = 0; v < V; ++v) {
+        const std::int32_t i = var[static_cast<std::size_t>(v)];
+        if (i < 0) continue;
+        moved += (x.row(i) - mesh.vertices.row(v)).norm();
+        mesh.vertices.row(v) = x.row(i);
+    }
+    st.mean_move = moved / static_cast<double>(n_free);
+    if (stats) *stats = st;
+    return mesh;
 }
 
 }  // namespace pcp

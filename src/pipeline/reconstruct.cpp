@@ -374,6 +374,9 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // The noise's bumps that the fit onto noisy data keeps (include/pcp/mesh/smooth.hpp).
     r.smoothed = r.denoise_passes > 0 ? options.smoothing.noisy : options.smoothing.clean;
     Mesh unit_mesh = r.smoothed ? bilateral_smooth(fitted_mesh, options.smoothing.bilateral) : fitted_mesh;
+    // Where no data lies under it, the smoothest surface that joins the data (FairOptions); a scene
+    // trims those faces instead.
+    if (options.fairing.enabled && !options.scene.enabled) unit_mesh = fair_unsupported(unit_mesh, fit_cloud, options.fairing, &r.fairing);
     // Scenes: open where the data ends (ReconstructOptions::scene).
     if (options.scene.enabled) {
         unit_mesh = trim_unsupported_faces(unit_mesh, cloud.tree(), options.scene.support_k * sampling_scale(cloud.tree()),

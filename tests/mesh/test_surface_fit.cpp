@@ -3,7 +3,8 @@
 // on a noisy plate the far side's points are left out of a side's fit (not on a bar as thick as its noise);
 // topology is unchanged; disabled is the identity; bad options throw. The recentring brings a
 // surface lying inside noisy points (a sphere, both sides of a thin slab) onto their middle and
-// leaves a clean one where it is.
+// leaves a clean one where it is. The fairing smooths a crumpled cap with no points under it and
+// brings it nearer the sphere, leaves supported vertices and a patch touching no data alone.
 #include "mc_test_util.hpp"
 #include "pcp/cloud/shapes.hpp"
 #include "pcp/core/error.hpp"
@@ -452,4 +453,119 @@ TEST_CASE("recentre: a surface on clean points stays where it is, and bad option
     pcp::Mesh broken = mesh;
     broken.faces(0, 0) = static_cast<std::int32_t>(mesh.vertices.rows());
     CHECK_THROWS_AS(pcp::recentre_on_points(broken, tree), pcp::Error);
+}
+
+namespace {
+
+/// The vertices of a sphere mesh with x > x_cut crumpled radially (a deterministic pattern of
+/// amplitude `amplitude`), and points on the sphere with x < x_data only.
+struct CrumpledCap {
+    pcp::Mesh mesh;
+    pcp::PointsF points;
+    std::vector<Eigen::Index> cap;  ///< the crumpled vertices
+};
+
+CrumpledCap crumpled_cap(double R, double x_cut, double x_data, double amplitude) {
+    CrumpledCap c;
+    c.mesh = mesh_of(sphere_sdf(Eigen::Vector3d::Zero(), R), 60);
+    for (Eigen::Index v = 0; v < c.mesh.vertices.rows(); ++v) {
+        const Eigen::RowVector3d p = c.mesh.vertices.row(v);
+        if (p.x() <= x_cut) continue;
+        const double bump = amplitude * std::sin(97 * p.y() + 3) * std::cos(89 * p.z() + 1);
+        c.mesh.vertices.row(v) = p * (1 + bump / p.norm());
+        c.cap.push_back(v);
+    }
+    const pcp::PointsF all = sphere_points(20000, R, 7);
+    std::vector<Eigen::Index> keep;
+    for (Eigen::Index i = 0; i < all.rows(); ++i)
+        if (all(i, 0) < x_data) keep.push_back(i);
+    c.points.resize(static_cast<Eigen::Index>(keep.size()), 3);
+    for (std::size_t k = 0; k < keep.size(); ++k) c.points.row(static_cast<Eigen::Index>(k)) = all.row(keep[k]);
+    return c;
+}
+
+double mean_radial_error(const pcp::Mesh& mesh, const std::vector<Eigen::Index>& vertices, double radius) {
+    double s = 0;
+    for (Eigen::Index v : vertices) s += std::abs(mesh.vertices.row(v).norm() - radius);
+    return s / static_cast<double>(vertices.size());
+}
+
+/// The mean over `vertices` of |r_v - the mean r of v's edge neighbours| (r: distance to the
+/// origin): the crumples, not the cap's overall shape.
+double radial_roughness(const pcp::Mesh& mesh, const std::vector<Eigen::Index>& vertices) {
+    std::vector<double> sum(static_cast<std::size_t>(mesh.vertices.rows()), 0.0), count(sum.size(), 0.0);
+    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+        for (int k = 0; k < 3; ++k) {
+            const int a = mesh.faces(f, k), b = mesh.faces(f, (k + 1) % 3);
+            sum[static_cast<std::size_t>(a)] += mesh.vertices.row(b).norm();
+            count[static_cast<std::size_t>(a)] += 1;
+        }
+    double s = 0;
+    for (Eigen::Index v : vertices)
+        s += std::abs(mesh.vertices.row(v).norm() - sum[static_cast<std::size_t>(v)] / count[static_cast<std::size_t>(v)]);
+    return s / static_cast<double>(vertices.size());
+}
+
+}  // namespace
+
+TEST_CASE("fairing: a crumpled cap with no points under it comes out smooth and near the sphere, the supported rest stays",
+          "[surface_fit]") {
+    const double R = 0.2937;  // no grid node on the sphere: no degenerate triangle
+    const CrumpledCap c = crumpled_cap(R, 0.2, 0.17, 0.02);
+    REQUIRE(c.cap.size() > 100);
+    const pcp::KdTree tree(c.points);
+    pcp::FairStats st;
+    const pcp::Mesh out = pcp::fair_unsupported(c.mesh, tree, {}, &st);
+    const double before = mean_radial_error(c.mesh, c.cap, R), after = mean_radial_error(out, c.cap, R);
+    const double rough_before = radial_roughness(c.mesh, c.cap), rough_after = radial_roughness(out, c.cap);
+    INFO("crumpled cap: mean |r - R| before " << before << ", after " << after << ", roughness before " << rough_before
+                                              << ", after " << rough_after << "; " << st.free_vertices << " free vertices in "
+                                              << st.patches << " patches, mean move " << st.mean_move);
+    CHECK(rough_after < rough_before / 10);  // the crumples are gone
+    CHECK(after < before / 1.5);             // and the cap is nearer the sphere: a thin plate, not a flat lid
+    CHECK(st.patches >= 1);  // the cap, and maybe a vertex or two in the random sampling's widest gaps
+    CHECK(st.unanchored == 0);
+    CHECK(st.free_vertices >= static_cast<std::int64_t>(c.cap.size()));
+    // Supported vertices (an input point within the radius) do not move at all.
+    Eigen::VectorXf d;
+    tree.nearest(c.mesh.vertices.cast<float>(), &d);
+    const double radius = pcp::FairOptions{}.support_k * pcp::sampling_scale(tree);
+    std::int64_t moved_supported = 0;
+    for (Eigen::Index v = 0; v < d.size(); ++v)
+        if (d(v) <= radius && out.vertices.row(v) != c.mesh.vertices.row(v)) ++moved_supported;
+    CHECK(moved_supported == 0);
+    CHECK(out.faces == c.mesh.faces);
+    CHECK(pcp::is_closed_and_oriented(out));
+}
+
+TEST_CASE("fairing: a fully supported mesh and a disabled fairing are the identity, a patch touching no data stays, bad options throw",
+          "[surface_fit]") {
+    const double R = 0.3;
+    const pcp::Mesh sphere = mesh_of(sphere_sdf(Eigen::Vector3d::Zero(), R), 40);
+    const pcp::KdTree everywhere(sphere.vertices.cast<float>());  // a point on every vertex
+    pcp::FairStats st;
+    CHECK(pcp::fair_unsupported(sphere, everywhere, {}, &st).vertices == sphere.vertices);
+    CHECK(st.free_vertices == 0);
+    // A second sphere far from every point: no supported vertex to join, so it is left as it is.
+    pcp::Mesh two = sphere;
+    two.vertices.conservativeResize(2 * sphere.vertices.rows(), 3);
+    two.vertices.bottomRows(sphere.vertices.rows()) = sphere.vertices.rowwise() + Eigen::RowVector3d(2, 0, 0);
+    two.faces.conservativeResize(2 * sphere.faces.rows(), 3);
+    two.faces.bottomRows(sphere.faces.rows()) = sphere.faces.array() + static_cast<int>(sphere.vertices.rows());
+    CHECK(pcp::fair_unsupported(two, everywhere, {}, &st).vertices == two.vertices);
+    CHECK(st.unanchored == sphere.vertices.rows());
+    CHECK(st.free_vertices == 0);
+    const CrumpledCap c = crumpled_cap(R, 0.21, 0.18, 0.02);
+    const pcp::KdTree tree(c.points);
+    pcp::FairOptions off;
+    off.enabled = false;
+    CHECK(pcp::fair_unsupported(c.mesh, tree, off).vertices == c.mesh.vertices);
+    pcp::FairOptions bad;
+    bad.support_k = 0;
+    CHECK_THROWS_AS(pcp::fair_unsupported(c.mesh, tree, bad), pcp::Error);
+    bad.support_k = std::numeric_limits<double>::quiet_NaN();
+    CHECK_THROWS_AS(pcp::fair_unsupported(c.mesh, tree, bad), pcp::Error);
+    pcp::Mesh broken = c.mesh;
+    broken.faces(0, 1) = static_cast<int>(broken.vertices.rows());
+    CHECK_THROWS_AS(pcp::fair_unsupported(broken, tree), pcp::Error);
 }

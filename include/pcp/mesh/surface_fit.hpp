@@ -132,6 +132,37 @@ struct RecentreStats {
 Mesh recentre_on_points(const Mesh& unit_mesh, const KdTree& cloud, const RecentreOptions& options = {},
                         RecentreStats* stats = nullptr);
 
+/// Fairing where there is no data (not in the paper), run last on the meshes of objects. Where no
+/// input point lies under the surface, its shape is the fitted field's guess: on the shared cases
+/// crumpled sheets and ragged rims at the scans' borders (abc_00010071's barely scanned bore end,
+/// the gargoyle's edges, docs/BENCHMARKS.md "Fairing where there is no data"). Every vertex with
+/// no input point within support_k x the sampling scale (the surface fit's support radius) is
+/// placed instead as the smoothest surface that joins the supported rest: the solution of
+/// L A^-1 L x = 0 on those vertices with the supported ones fixed, L the cotangent Laplacian and A
+/// the vertex areas (the thin-plate energy), so that the patch continues its border's position and
+/// slope. Measured against it (docs/BENCHMARKS.md): the membrane L x = 0 flattens the patches
+/// (worse on the shared cases), and the graph Laplacian (uniform weights) depends on the
+/// triangles' shapes (a raw marching-cubes sphere's unsupported cap came out twice as flat). A
+/// patch of free vertices that touches no supported vertex has nothing to join and stays where it
+/// is (the surface fit removes such components before). Topology is unchanged (vertices move,
+/// faces stay). Cost: a sparse Cholesky factorisation over the free vertices (0.1 s for 10,000).
+struct FairOptions {
+    bool enabled = true;     ///< pcp::reconstruct runs it on every mesh but the scene mode's (which trims those faces)
+    double support_k = 0.8;  ///< a vertex is supported with an input point within this x the sampling scale (> 0)
+};
+
+struct FairStats {
+    std::int64_t free_vertices = 0;  ///< vertices placed by the fairing
+    std::int64_t patches = 0;        ///< connected patches of them
+    std::int64_t unanchored = 0;     ///< unsupported vertices left in place: their patch touches no supported vertex
+    double mean_move = 0;            ///< mean distance the placed vertices moved (unit-box units)
+};
+
+/// The mesh faired where it has no data under it (see FairOptions). `unit_mesh` and `cloud` in the
+/// same frame (the unit box). Throws pcp::Error for bad options or a face index out of range, and
+/// when the sparse solve fails.
+Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOptions& options = {}, FairStats* stats = nullptr);
+
 /// Every vertex moved by `distance` along its unit normal (area weighted, averaged over its
 /// one-ring, as the fit's; positive: outward). Faces unchanged. pcp::reconstruct uses it to
 /// bring a mesh extracted at the level F = d back by d (ReconstructOptions::thin_offset).
