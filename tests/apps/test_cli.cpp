@@ -311,7 +311,7 @@ TEST_CASE("cli: pcp_reconstruct's sign-repair and denoise options: bad values ex
     CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
 }
 
-TEST_CASE("cli: pcp_reconstruct's surface-fit and fine-repair options: bad values exit 2 naming the flag", "[cli]") {
+TEST_CASE("cli: pcp_reconstruct's surface-fit, fine-repair and fair options: bad values exit 2 naming the flag", "[cli]") {
     const RunResult word = run(bin("pcp_reconstruct") + " --surface-fit maybe x.ply");
     INFO("stderr: " << word.err);
     CHECK(word.exit_code == 2);
@@ -320,13 +320,17 @@ TEST_CASE("cli: pcp_reconstruct's surface-fit and fine-repair options: bad value
     INFO("stderr: " << fine.err);
     CHECK(fine.exit_code == 2);
     CHECK(fine.err.find("--fine-repair must be on or off (got '1')") != std::string::npos);
+    const RunResult fair = run(bin("pcp_reconstruct") + " --fair yes x.ply");
+    INFO("stderr: " << fair.err);
+    CHECK(fair.exit_code == 2);
+    CHECK(fair.err.find("--fair must be on or off (got 'yes')") != std::string::npos);
     for (const char* n : {"-1", "101"}) {
         const RunResult r = run(bin("pcp_reconstruct") + " --surface-fit-iterations " + n + " x.ply");
         INFO("--surface-fit-iterations " << n << " stderr: " << r.err);
         CHECK(r.exit_code == 2);
         CHECK(r.err.find("--surface-fit-iterations must be in [0, 100]") != std::string::npos);
     }
-    const RunResult good = run(bin("pcp_reconstruct") + " --surface-fit off --surface-fit-iterations 3 --fine-repair off --keep-checkpoint /nonexistent/x.ply -o '" +
+    const RunResult good = run(bin("pcp_reconstruct") + " --surface-fit off --surface-fit-iterations 3 --fine-repair off --fair off --keep-checkpoint /nonexistent/x.ply -o '" +
                                (case_dir("surface_fit") / "o.ply").string() + "'");
     INFO("stderr: " << good.err);
     CHECK(good.exit_code == 1);
