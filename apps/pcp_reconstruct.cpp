@@ -690,7 +690,8 @@ int main(int argc, char** argv) {
                  (report.surface_fit.removed_small > 0 ? ", or " + std::to_string(report.surface_fit.removed_small) + " smaller than the sampling scale" : std::string()) +
                  (report.surface_fit.removed_blisters > 0 ? ", or " + std::to_string(report.surface_fit.removed_blisters) + " lying on the largest within a sampling scale" : std::string()) +
                  ")" << (report.smoothed ? ", smoothed" : "")
-          << (report.fairing.free_vertices + report.fairing.unanchored > 0
+          << (report.fairing.failed ? std::string(", fairing skipped (its sparse solve failed)")
+              : report.fairing.free_vertices > 0
                   ? ", faired " + std::to_string(report.fairing.free_vertices) + " vertices with no data under them in " +
                         std::to_string(report.fairing.patches) + " patches"
                   : std::string())

@@ -453,6 +453,7 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
     const Eigen::Index V = unit_mesh.vertices.rows();
     PCP_CHECK(unit_mesh.faces.rows() == 0 || (unit_mesh.faces.minCoeff() >= 0 && unit_mesh.faces.maxCoeff() < V),
               "fairing: a face index is out of range");
+    PCP_CHECK(unit_mesh.vertices.allFinite(), "fairing: a vertex coordinate is not finite");
     FairStats st;
     Mesh mesh = unit_mesh;
     if (!options.enabled || V == 0 || unit_mesh.faces.rows() == 0) {
@@ -564,10 +565,17 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
     }
     Eigen::SparseMatrix<double> system(n_free, n_free);
     system.setFromTriplets(triplets.begin(), triplets.end());
+    // Positive definite in exact arithmetic; should rounding still defeat the factorisation, the
+    // mesh stays as the fit left it (the fairing is a refinement, never worth losing a run for).
     const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(system);
-    PCP_CHECK(solver.info() == Eigen::Success, "fairing: the factorisation of " << n_free << " free vertices failed");
-    const Eigen::MatrixXd x = solver.solve(rhs);
-    PCP_CHECK(solver.info() == Eigen::Success && x.allFinite(), "fairing: the solve for " << n_free << " free vertices failed");
+    Eigen::MatrixXd x;
+    if (solver.info() == Eigen::Success) x = solver.solve(rhs);
+    if (solver.info() != Eigen::Success || !x.allFinite()) {
+        st.failed = true;
+        st.free_vertices = 0;
+        if (stats) *stats = st;
+        return mesh;
+    }
     double moved = 0;
     for (Eigen::Index v = 0; v < V; ++v) {
         const std::int32_t i = var[static_cast<std::size_t>(v)];

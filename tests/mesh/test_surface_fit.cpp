@@ -538,7 +538,7 @@ TEST_CASE("fairing: a crumpled cap with no points under it comes out smooth and 
     CHECK(pcp::is_closed_and_oriented(out));
 }
 
-TEST_CASE("fairing: a fully supported mesh and a disabled fairing are the identity, a patch touching no data stays, bad options throw",
+TEST_CASE("fairing: a fully supported mesh and a disabled fairing are the identity, a patch touching no data stays, bad input throws",
           "[surface_fit]") {
     const double R = 0.3;
     const pcp::Mesh sphere = mesh_of(sphere_sdf(Eigen::Vector3d::Zero(), R), 40);
@@ -568,4 +568,7 @@ TEST_CASE("fairing: a fully supported mesh and a disabled fairing are the identi
     pcp::Mesh broken = c.mesh;
     broken.faces(0, 1) = static_cast<int>(broken.vertices.rows());
     CHECK_THROWS_AS(pcp::fair_unsupported(broken, tree), pcp::Error);
+    pcp::Mesh nan_vertex = c.mesh;
+    nan_vertex.vertices(0, 2) = std::numeric_limits<double>::quiet_NaN();
+    CHECK_THROWS_AS(pcp::fair_unsupported(nan_vertex, tree), pcp::Error);
 }

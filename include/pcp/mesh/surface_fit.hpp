@@ -85,7 +85,8 @@ struct SurfaceFitStats {
 };
 
 /// The mesh after the support filter and the fit (see above). `unit_mesh` and `cloud` are in the
-/// same frame (the unit box). Throws pcp::Error for bad options or a face index out of range.
+/// same frame (the unit box). Throws pcp::Error for bad options, a face index out of range or a
+/// vertex that is not finite.
 Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const SurfaceFitOptions& options = {},
                            SurfaceFitStats* stats = nullptr);
 
@@ -156,11 +157,12 @@ struct FairStats {
     std::int64_t patches = 0;        ///< connected patches of them
     std::int64_t unanchored = 0;     ///< unsupported vertices left in place: their patch touches no supported vertex
     double mean_move = 0;            ///< mean distance the placed vertices moved (unit-box units)
+    bool failed = false;             ///< the sparse solve failed (not seen on any shared case): the mesh was left as it was
 };
 
 /// The mesh faired where it has no data under it (see FairOptions). `unit_mesh` and `cloud` in the
-/// same frame (the unit box). Throws pcp::Error for bad options or a face index out of range, and
-/// when the sparse solve fails.
+/// same frame (the unit box). Throws pcp::Error for bad options, a face index out of range or a
+/// vertex that is not finite.
 Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOptions& options = {}, FairStats* stats = nullptr);
 
 /// Every vertex moved by `distance` along its unit normal (area weighted, averaged over its
