@@ -480,12 +480,11 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
             if (loose[static_cast<std::size_t>(u)]) parent[static_cast<std::size_t>(find_root(parent, u))] = find_root(parent, static_cast<std::int32_t>(v));
         }
     }
-    std::vector<char> anchored(static_cast<std::size_t>(V), 0), is_root(static_cast<std::size_t>(V), 0);
+    std::vector<char> anchored(static_cast<std::size_t>(V), 0);
     for (Eigen::Index v = 0; v < V; ++v) {
         const auto vs = static_cast<std::size_t>(v);
         if (!loose[vs]) continue;
         const std::int32_t r = find_root(parent, static_cast<std::int32_t>(v));
-        is_root[static_cast<std::size_t>(r)] = 1;
         for (std::int64_t e = ring.start[vs]; e < ring.start[vs + 1]; ++e)
             if (!loose[static_cast<std::size_t>(ring.ids[static_cast<std::size_t>(e)])]) anchored[static_cast<std::size_t>(r)] = 1;
     }
@@ -497,8 +496,8 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
         if (anchored[static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)))]) var[vs] = n_free++;
         else ++st.unanchored;
     }
-    for (Eigen::Index v = 0; v < V; ++v)
-        if (is_root[static_cast<std::size_t>(v)] && anchored[static_cast<std::size_t>(v)]) ++st.patches;
+    for (Eigen::Index v = 0; v < V; ++v)  // a patch's root is the loose vertex that is its own parent
+        if (loose[static_cast<std::size_t>(v)] && parent[static_cast<std::size_t>(v)] == v && anchored[static_cast<std::size_t>(v)]) ++st.patches;
     st.free_vertices = n_free;
     if (n_free == 0) {
         if (stats) *stats = st;
@@ -534,7 +533,7 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
     for (double w : weight) mean_weight += std::abs(w);
     mean_weight = std::max(mean_weight / static_cast<double>(std::max<std::size_t>(weight.size(), 1)), 1e-300);
     for (double& w : weight) w = std::clamp(w, 0.01 * mean_weight, 1000 * mean_weight);
-    const double area_floor = 1e-6 * std::max(area.mean(), 1e-300);
+    area = area.cwiseMax(1e-6 * std::max(area.mean(), 1e-300));  // no division by a sliver's zero area
     Eigen::VectorXd diagonal = Eigen::VectorXd::Zero(V);  // L_ii
     for (Eigen::Index v = 0; v < V; ++v)
         for (std::int64_t e = ring.start[static_cast<std::size_t>(v)]; e < ring.start[static_cast<std::size_t>(v) + 1]; ++e)
@@ -557,10 +556,10 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
         const auto vs = static_cast<std::size_t>(v);
         const std::int32_t row = var[vs];
         if (row < 0) continue;
-        add_row_of_k(row, static_cast<std::int32_t>(v), diagonal(v) / std::max(area(v), area_floor));
+        add_row_of_k(row, static_cast<std::int32_t>(v), diagonal(v) / area(v));
         for (std::int64_t e = ring.start[vs]; e < ring.start[vs + 1]; ++e) {
             const std::int32_t k = ring.ids[static_cast<std::size_t>(e)];
-            add_row_of_k(row, k, weight[static_cast<std::size_t>(e)] / std::max(area(k), area_floor));
+            add_row_of_k(row, k, weight[static_cast<std::size_t>(e)] / area(k));
         }
     }
     Eigen::SparseMatrix<double> system(n_free, n_free);
