@@ -695,6 +695,8 @@ int main(int argc, char** argv) {
                   ? ", faired " + std::to_string(report.fairing.free_vertices) + " vertices with no data under them in " +
                         std::to_string(report.fairing.patches) + " patches"
                   : std::string())
+          << (report.fairing.reverted > 0 ? ", " + std::to_string(report.fairing.reverted) + " patches left unfaired (their solve strayed)"
+                                          : std::string())
           << (o.scene.enabled ? ", scene mode removed " + std::to_string(report.scene_trimmed) + " faces with no data near them"
                               : std::string());
         log.info(s.str());

@@ -450,6 +450,7 @@ Mesh trim_unsupported_faces(const Mesh& unit_mesh, const KdTree& cloud, double r
 
 Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOptions& options, FairStats* stats) {
     PCP_CHECK(options.support_k > 0 && std::isfinite(options.support_k), "fairing: support_k must be > 0, got " << options.support_k);
+    PCP_CHECK(options.guard >= 0 && std::isfinite(options.guard), "fairing: guard must be >= 0, got " << options.guard);
     const Eigen::Index V = unit_mesh.vertices.rows();
     PCP_CHECK(unit_mesh.faces.rows() == 0 || (unit_mesh.faces.minCoeff() >= 0 && unit_mesh.faces.maxCoeff() < V),
               "fairing: a face index is out of range");
@@ -504,10 +505,13 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
         return mesh;
     }
     // The cotangent Laplacian L (L_ij = (cot a + cot b) / 2 along an edge, the angles facing it,
-    // clipped to [0.01, 1000] x their mean so that slivers of the marching cubes neither cut nor
+    // clipped to [0.1, 10] x their mean so that slivers of the marching cubes neither cut nor
     // dominate; L_ii = -sum_j L_ij) and the vertex areas A (a third of the faces'): the bi-Laplacian
     // L A^-1 L is the mesh's thin-plate energy whatever its triangles' shapes (the graph Laplacian
-    // of a raw marching-cubes sphere flattened an unsupported cap twice as much).
+    // of a raw marching-cubes sphere flattened an unsupported cap twice as much). With the clip at
+    // [0.01, 1000] x the mean, abc_00016513's mesh at 256 cells grew needles up to 1.7 long: a
+    // vertex tied by a clipped small weight to a row that a large one dominates is pushed far to
+    // zero that row (docs/BENCHMARKS.md, "Needles in the fairing at 256 cells").
     std::vector<double> weight(ring.ids.size(), 0.0);
     Eigen::VectorXd area = Eigen::VectorXd::Zero(V);
     const auto slot = [&](std::int32_t a, std::int32_t b) {  // position of b in a's sorted one-ring
@@ -532,7 +536,7 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
     double mean_weight = 0;
     for (double w : weight) mean_weight += std::abs(w);
     mean_weight = std::max(mean_weight / static_cast<double>(std::max<std::size_t>(weight.size(), 1)), 1e-300);
-    for (double& w : weight) w = std::clamp(w, 0.01 * mean_weight, 1000 * mean_weight);
+    for (double& w : weight) w = std::clamp(w, 0.1 * mean_weight, 10 * mean_weight);
     area = area.cwiseMax(1e-6 * std::max(area.mean(), 1e-300));  // no division by a sliver's zero area
     Eigen::VectorXd diagonal = Eigen::VectorXd::Zero(V);  // L_ii
     for (Eigen::Index v = 0; v < V; ++v)
@@ -575,14 +579,46 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
         if (stats) *stats = st;
         return mesh;
     }
+    // A patch whose solution leaves the box of its vertices and their one-rings, grown by
+    // options.guard x that box's diagonal, is left as it was: a thin plate stays near its border and
+    // its own guess, so a vertex beyond that is an ill-conditioned solve, not a smoother surface.
+    std::vector<Eigen::Vector3d> low(static_cast<std::size_t>(V)), high(static_cast<std::size_t>(V));
+    std::vector<char> seen(static_cast<std::size_t>(V), 0), reverted(static_cast<std::size_t>(V), 0);
+    for (Eigen::Index v = 0; v < V; ++v) {
+        if (var[static_cast<std::size_t>(v)] < 0) continue;
+        const auto r = static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)));
+        const auto grow = [&](Eigen::Index u) {
+            const Eigen::Vector3d p = mesh.vertices.row(u).transpose();
+            low[r] = seen[r] ? low[r].cwiseMin(p) : p;
+            high[r] = seen[r] ? high[r].cwiseMax(p) : p;
+            seen[r] = 1;
+        };
+        grow(v);
+        for (std::int64_t e = ring.start[static_cast<std::size_t>(v)]; e < ring.start[static_cast<std::size_t>(v) + 1]; ++e)
+            grow(ring.ids[static_cast<std::size_t>(e)]);
+    }
+    for (Eigen::Index v = 0; v < V; ++v) {
+        const std::int32_t i = var[static_cast<std::size_t>(v)];
+        if (i < 0) continue;
+        const auto r = static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)));
+        const double margin = options.guard * (high[r] - low[r]).norm();
+        const Eigen::Vector3d p = x.row(i).transpose();
+        if (((p - low[r]).array() < -margin).any() || ((p - high[r]).array() > margin).any()) reverted[r] = 1;
+    }
     double moved = 0;
     for (Eigen::Index v = 0; v < V; ++v) {
         const std::int32_t i = var[static_cast<std::size_t>(v)];
         if (i < 0) continue;
+        if (reverted[static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)))]) {
+            --st.free_vertices;
+            continue;
+        }
         moved += (x.row(i) - mesh.vertices.row(v)).norm();
         mesh.vertices.row(v) = x.row(i);
     }
-    st.mean_move = moved / static_cast<double>(n_free);
+    st.reverted = std::count(reverted.begin(), reverted.end(), char{1});
+    st.patches -= st.reverted;
+    st.mean_move = st.free_vertices > 0 ? moved / static_cast<double>(st.free_vertices) : 0.0;
     if (stats) *stats = st;
     return mesh;
 }

@@ -1,3 +1,9 @@
+
+
+
+
+
+
 // Tests for pcp/mesh/surface_fit.hpp: a component with no data near it is removed and the rest kept
 // intact; so is a supported one smaller than the sampling scale (never the largest); a rippled sphere is brought onto its points; the two sides of a thin slab stay apart;
 // on a noisy plate the far side's points are left out of a side's fit (not on a bar as thick as its noise);
@@ -465,9 +471,9 @@ struct CrumpledCap {
     std::vector<Eigen::Index> cap;  ///< the crumpled vertices
 };
 
-CrumpledCap crumpled_cap(double R, double x_cut, double x_data, double amplitude) {
+CrumpledCap crumpled_cap(double R, double x_cut, double x_data, double amplitude, int resolution = 60) {
     CrumpledCap c;
-    c.mesh = mesh_of(sphere_sdf(Eigen::Vector3d::Zero(), R), 60);
+    c.mesh = mesh_of(sphere_sdf(Eigen::Vector3d::Zero(), R), resolution);
     for (Eigen::Index v = 0; v < c.mesh.vertices.rows(); ++v) {
         const Eigen::RowVector3d p = c.mesh.vertices.row(v);
         if (p.x() <= x_cut) continue;
@@ -536,6 +542,27 @@ TEST_CASE("fairing: a crumpled cap with no points under it comes out smooth and 
     CHECK(moved_supported == 0);
     CHECK(out.faces == c.mesh.faces);
     CHECK(pcp::is_closed_and_oriented(out));
+}
+
+TEST_CASE("fairing: a patch whose solution leaves its box is left as it was", "[surface_fit]") {
+    // A cap pushed deep inside the sphere: the thin plate over it rises back out, above the box of
+    // the cap and its border; with no margin (guard 0) the guard keeps the patch as it was.
+    const double R = 0.2937;
+    CrumpledCap c = crumpled_cap(R, 0.2, 0.17, 0.0);
+    for (Eigen::Index v : c.cap) c.mesh.vertices.row(v) *= 0.75;
+    const pcp::KdTree tree(c.points);
+    pcp::FairOptions strict;
+    strict.guard = 0;
+    pcp::FairStats st;
+    const pcp::Mesh kept = pcp::fair_unsupported(c.mesh, tree, strict, &st);
+    CHECK(st.reverted >= 1);
+    for (Eigen::Index v : c.cap) CHECK(kept.vertices.row(v) == c.mesh.vertices.row(v));
+    // With the default margin the same cap is faired, back toward the sphere.
+    const pcp::Mesh faired = pcp::fair_unsupported(c.mesh, tree, {}, &st);
+    CHECK(st.reverted == 0);
+    CHECK(mean_radial_error(faired, c.cap, R) < mean_radial_error(c.mesh, c.cap, R) / 2);
+    strict.guard = -1;
+    CHECK_THROWS_AS(pcp::fair_unsupported(c.mesh, tree, strict), pcp::Error);
 }
 
 TEST_CASE("fairing: a fully supported mesh and a disabled fairing are the identity, a patch touching no data stays, bad input throws",

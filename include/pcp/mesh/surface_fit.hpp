@@ -150,12 +150,17 @@ Mesh recentre_on_points(const Mesh& unit_mesh, const KdTree& cloud, const Recent
 struct FairOptions {
     bool enabled = true;     ///< pcp::reconstruct runs it on every mesh but the scene mode's (which trims those faces)
     double support_k = 0.8;  ///< a vertex is supported with an input point within this x the sampling scale (> 0)
+    /// A patch is left as it was if a vertex of its solution leaves the box of the patch's vertices
+    /// and their one-rings grown by this x the box's diagonal (>= 0; an ill-conditioned solve, never
+    /// seen at 128 cells on the shared cases).
+    double guard = 0.5;
 };
 
 struct FairStats {
     std::int64_t free_vertices = 0;  ///< vertices placed by the fairing
     std::int64_t patches = 0;        ///< connected patches of them
     std::int64_t unanchored = 0;     ///< unsupported vertices left in place: their patch touches no supported vertex
+    std::int64_t reverted = 0;       ///< patches left as they were by the guard (FairOptions::guard); not in patches
     double mean_move = 0;            ///< mean distance the placed vertices moved (unit-box units)
     bool failed = false;             ///< the sparse solve failed (not seen on any shared case): the mesh was left as it was
 };
