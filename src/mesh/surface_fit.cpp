@@ -3,6 +3,7 @@
 #include "pcp/mesh/surface_fit.hpp"
 
 #include "pcp/core/error.hpp"
+#include "eval/triangle_distance.hpp"
 
 #include <Eigen/Geometry>
 #include <Eigen/SparseCholesky>
@@ -68,26 +69,6 @@ Points vertex_normals(const Mesh& mesh, const OneRing& ring) {
         s.row(v) = len > 0 ? Eigen::RowVector3d(s.row(v) / len) : Eigen::RowVector3d::Zero();
     }
     return s;
-}
-
-/// The signed distance from p to the triangle (a, b, c): to its nearest point, negative behind the
-/// face (the side its normal (b - a) x (c - a) turns away from). Infinite for a degenerate triangle.
-double signed_triangle_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-    const Eigen::Vector3d normal = (b - a).cross(c - a);
-    const double twice_area = normal.norm();
-    if (!(twice_area > 0)) return std::numeric_limits<double>::infinity();
-    const Eigen::Vector3d n = normal / twice_area;
-    const double height = (p - a).dot(n);
-    const Eigen::Vector3d q = p - height * n;  // p projected onto the face's plane
-    const auto left_of = [&](const Eigen::Vector3d& u, const Eigen::Vector3d& v) { return (v - u).cross(q - u).dot(n) >= 0; };
-    if (left_of(a, b) && left_of(b, c) && left_of(c, a)) return height;
-    const auto to_edge = [&](const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
-        const Eigen::Vector3d d = v - u;
-        const double t = std::clamp((p - u).dot(d) / std::max(d.squaredNorm(), 1e-300), 0.0, 1.0);
-        return (p - (u + t * d)).norm();
-    };
-    const double distance = std::min({to_edge(a, b), to_edge(b, c), to_edge(c, a)});
-    return height >= 0 ? distance : -distance;
 }
 
 /// For each point, the mesh vertex nearest to it (the recentring's assignment, and the fit's for
@@ -252,41 +233,27 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
     // The far-side cut (SurfaceFitOptions::noise_spread): off without a spread.
     const bool cut_far_side = options.noise_spread > 0;
     const double far_gap = options.far_side_k * options.noise_spread;
-    // The faces around each vertex (for the offsets to the surface of the last rounds).
-    std::vector<std::int64_t> face_start, face_ids;
-    if (options.surface_rounds > 0) {
-        face_start.assign(static_cast<std::size_t>(V) + 1, 0);
-        for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
-            for (int k = 0; k < 3; ++k) ++face_start[static_cast<std::size_t>(mesh.faces(f, k)) + 1];
-        std::partial_sum(face_start.begin(), face_start.end(), face_start.begin());
-        face_ids.resize(static_cast<std::size_t>(face_start.back()));
-        std::vector<std::int64_t> next(face_start.begin(), face_start.end() - 1);
-        for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
-            for (int k = 0; k < 3; ++k) face_ids[static_cast<std::size_t>(next[static_cast<std::size_t>(mesh.faces(f, k))]++)] = f;
-    }
-    std::vector<double> to_surface;  // per input point: its signed distance to the mesh near its nearest vertex
+    std::vector<double> to_surface;  // per input point: its signed distance to the mesh (negative behind its nearest face)
     for (int it = 0; it < options.iterations; ++it) {
         const bool surface_offsets = it >= options.iterations - options.surface_rounds;
         const Points normals = vertex_normals(mesh, ring);
         cloud.knn(mesh.vertices.cast<float>(), K, idx, dist);
-        const IndexVector owner = cut_far_side || surface_offsets ? nearest_vertex(mesh, pts) : IndexVector();
-        if (surface_offsets) {
+        const IndexVector owner = cut_far_side ? nearest_vertex(mesh, pts) : IndexVector();
+        if (surface_offsets) {  // each point's signed distance to its nearest face (exact, CGAL's AABB tree)
+            const Points p = pts.cast<double>();
+            Points closest;
+            const Eigen::VectorXi face = detail::TriangleDistance(mesh).nearest_faces(p, closest);
             to_surface.resize(static_cast<std::size_t>(pts.rows()));
 #pragma omp parallel for schedule(static)
             for (Eigen::Index i = 0; i < pts.rows(); ++i) {
-                const Eigen::Vector3d p = pts.row(i).transpose().cast<double>();
-                const Eigen::Index u = owner(i);
-                double best = std::numeric_limits<double>::infinity();
-                for (std::int64_t e = face_start[static_cast<std::size_t>(u)]; e < face_start[static_cast<std::size_t>(u) + 1]; ++e) {
-                    const Eigen::Index f = face_ids[static_cast<std::size_t>(e)];
-                    const double d = signed_triangle_distance(p, mesh.vertices.row(mesh.faces(f, 0)).transpose(),
-                                                              mesh.vertices.row(mesh.faces(f, 1)).transpose(),
-                                                              mesh.vertices.row(mesh.faces(f, 2)).transpose());
-                    if (std::abs(d) < std::abs(best)) best = d;
+                const Eigen::RowVector3d d = p.row(i) - closest.row(i);
+                double side = 1;
+                if (face(i) >= 0) {
+                    const Eigen::RowVector3d a = mesh.vertices.row(mesh.faces(face(i), 0)), b = mesh.vertices.row(mesh.faces(face(i), 1)),
+                                             c = mesh.vertices.row(mesh.faces(face(i), 2));
+                    side = d.dot((b - a).cross(c - a)) < 0 ? -1 : 1;
                 }
-                // Only degenerate faces around it: the vertex's tangent plane.
-                to_surface[static_cast<std::size_t>(i)] =
-                    std::isfinite(best) ? best : (p - mesh.vertices.row(u).transpose()).dot(normals.row(u).transpose());
+                to_surface[static_cast<std::size_t>(i)] = side * d.norm();
             }
         }
         Points moved = mesh.vertices;

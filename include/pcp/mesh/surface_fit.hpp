@@ -59,8 +59,8 @@ struct SurfaceFitOptions {
     double bandwidth = 1.0;       ///< the offset kernel's width, in units of the vertex's distance to its 10th nearest point
     double relax = 0.5;           ///< tangential relaxation per round, in [0, 1]
     /// The last this many rounds (>= 0) take each input point's offset to the mesh's surface
-    /// instead: its signed distance to the nearest of the faces around its nearest vertex (not in
-    /// the paper). The points within h of a vertex on a curved surface lie below its tangent plane
+    /// instead: its signed distance to the mesh, negative behind its nearest face (not in the
+    /// paper). The points within h of a vertex on a curved surface lie below its tangent plane
     /// by about d^2 / 2R, so the mean shift along the normal pulls a convex surface in (shrinkage;
     /// a rounded edge is the extreme case), while the offsets to the surface are zero on average
     /// where the surface is on the data. They do not see a single vertex's step, which the
