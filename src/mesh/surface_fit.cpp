@@ -502,11 +502,14 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
             if (loose[static_cast<std::size_t>(u)]) parent[static_cast<std::size_t>(find_root(parent, u))] = find_root(parent, static_cast<std::int32_t>(v));
         }
     }
+    std::vector<std::int32_t> patch(static_cast<std::size_t>(V), -1);  // each loose vertex's patch (its root)
+    for (Eigen::Index v = 0; v < V; ++v)
+        if (loose[static_cast<std::size_t>(v)]) patch[static_cast<std::size_t>(v)] = find_root(parent, static_cast<std::int32_t>(v));
     std::vector<char> anchored(static_cast<std::size_t>(V), 0);
     for (Eigen::Index v = 0; v < V; ++v) {
         const auto vs = static_cast<std::size_t>(v);
         if (!loose[vs]) continue;
-        const std::int32_t r = find_root(parent, static_cast<std::int32_t>(v));
+        const std::int32_t r = patch[vs];
         for (std::int64_t e = ring.start[vs]; e < ring.start[vs + 1]; ++e)
             if (!loose[static_cast<std::size_t>(ring.ids[static_cast<std::size_t>(e)])]) anchored[static_cast<std::size_t>(r)] = 1;
     }
@@ -515,7 +518,7 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
     for (Eigen::Index v = 0; v < V; ++v) {
         const auto vs = static_cast<std::size_t>(v);
         if (!loose[vs]) continue;
-        if (anchored[static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)))]) var[vs] = n_free++;
+        if (anchored[static_cast<std::size_t>(patch[vs])]) var[vs] = n_free++;
         else ++st.unanchored;
     }
     for (Eigen::Index v = 0; v < V; ++v)  // a patch's root is the loose vertex that is its own parent
@@ -603,16 +606,16 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
     // A patch whose solution leaves the box of its vertices and their one-rings, grown by
     // options.guard x that box's diagonal, is left as it was: a thin plate stays near its border and
     // its own guess, so a vertex beyond that is an ill-conditioned solve, not a smoother surface.
-    std::vector<Eigen::Vector3d> low(static_cast<std::size_t>(V)), high(static_cast<std::size_t>(V));
-    std::vector<char> seen(static_cast<std::size_t>(V), 0), reverted(static_cast<std::size_t>(V), 0);
+    const double inf = std::numeric_limits<double>::infinity();
+    std::vector<Eigen::Vector3d> low(static_cast<std::size_t>(V), Eigen::Vector3d::Constant(inf)),
+        high(static_cast<std::size_t>(V), Eigen::Vector3d::Constant(-inf));
+    std::vector<char> reverted(static_cast<std::size_t>(V), 0);
     for (Eigen::Index v = 0; v < V; ++v) {
         if (var[static_cast<std::size_t>(v)] < 0) continue;
-        const auto r = static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)));
+        const auto r = static_cast<std::size_t>(patch[static_cast<std::size_t>(v)]);
         const auto grow = [&](Eigen::Index u) {
-            const Eigen::Vector3d p = mesh.vertices.row(u).transpose();
-            low[r] = seen[r] ? low[r].cwiseMin(p) : p;
-            high[r] = seen[r] ? high[r].cwiseMax(p) : p;
-            seen[r] = 1;
+            low[r] = low[r].cwiseMin(mesh.vertices.row(u).transpose());
+            high[r] = high[r].cwiseMax(mesh.vertices.row(u).transpose());
         };
         grow(v);
         for (std::int64_t e = ring.start[static_cast<std::size_t>(v)]; e < ring.start[static_cast<std::size_t>(v) + 1]; ++e)
@@ -621,7 +624,7 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
     for (Eigen::Index v = 0; v < V; ++v) {
         const std::int32_t i = var[static_cast<std::size_t>(v)];
         if (i < 0) continue;
-        const auto r = static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)));
+        const auto r = static_cast<std::size_t>(patch[static_cast<std::size_t>(v)]);
         const double margin = options.guard * (high[r] - low[r]).norm();
         const Eigen::Vector3d p = x.row(i).transpose();
         if (((p - low[r]).array() < -margin).any() || ((p - high[r]).array() > margin).any()) reverted[r] = 1;
@@ -630,7 +633,7 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
     for (Eigen::Index v = 0; v < V; ++v) {
         const std::int32_t i = var[static_cast<std::size_t>(v)];
         if (i < 0) continue;
-        if (reverted[static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)))]) {
+        if (reverted[static_cast<std::size_t>(patch[static_cast<std::size_t>(v)])]) {
             --st.free_vertices;
             continue;
         }

@@ -507,9 +507,9 @@ struct CrumpledCap {
     std::vector<Eigen::Index> cap;  ///< the crumpled vertices
 };
 
-CrumpledCap crumpled_cap(double R, double x_cut, double x_data, double amplitude, int resolution = 60) {
+CrumpledCap crumpled_cap(double R, double x_cut, double x_data, double amplitude) {
     CrumpledCap c;
-    c.mesh = mesh_of(sphere_sdf(Eigen::Vector3d::Zero(), R), resolution);
+    c.mesh = mesh_of(sphere_sdf(Eigen::Vector3d::Zero(), R), 60);
     for (Eigen::Index v = 0; v < c.mesh.vertices.rows(); ++v) {
         const Eigen::RowVector3d p = c.mesh.vertices.row(v);
         if (p.x() <= x_cut) continue;
