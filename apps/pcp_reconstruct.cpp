@@ -337,6 +337,10 @@ int main(int argc, char** argv) {
             ("tunnel-fill", "on | off: plug the passages through the solid that are two cells across or less (the small "
                             "handles of a bumpy field; evaluates the whole grid; not in the paper; include/pcp/mesh/tunnel_fill.hpp)",
              cxxopts::value<std::string>()->default_value(d.tunnel_fill.enabled ? "on" : "off"))
+            ("through-carve", "on | off: make outside the inside samples of the fine grid that lie on lines crossing no wall of "
+                              "the data (openings a few sample spacings wide that the field spans; not in the paper; "
+                              "include/pcp/mesh/through_carve.hpp)",
+             cxxopts::value<std::string>()->default_value(d.through_carve.enabled ? "on" : "off"))
             ("bridge-cut", "on | off: with the tunnel fill, also cut the bridges of solid two cells across or less where that "
                            "removes a small handle and leaves the solid in one piece (the tunnel fill's dual; not in the paper; off by default: "
                            "it widens the holes of a thin wall the field already perforated)",
@@ -501,6 +505,7 @@ int main(int argc, char** argv) {
         if (const auto on = on_off(args, "fine-repair")) o.fine_repair.enabled = *on;
         if (const auto on = on_off(args, "tunnel-fill")) o.tunnel_fill.enabled = *on;
         if (const auto on = on_off(args, "bridge-cut")) o.tunnel_fill.cut_bridges = *on;
+        if (const auto on = on_off(args, "through-carve")) o.through_carve.enabled = *on;
         if (args.count("mc-ambiguity")) {
             const std::string v = args["mc-ambiguity"].as<std::string>();
             if (v == "join") o.marching_cubes.ambiguity = pcp::McAmbiguity::JoinInside;
@@ -680,6 +685,12 @@ int main(int argc, char** argv) {
           << ", tunnel fill " << (report.tunnel_fill.skipped ? std::string("skipped (grid too large)")
                                    : "plugged " + std::to_string(report.tunnel_fill.plugged) + " of " +
                                          std::to_string(report.tunnel_fill.candidates) + " narrow passages")
+          << (!o.through_carve.enabled ? std::string()
+              : report.through_carve.skipped ? std::string(", through-line carve skipped (grid too large)")
+                                             : ", through-line carve opened " + std::to_string(report.through_carve.opened) + " of " +
+                                                   std::to_string(report.through_carve.pieces) + " pieces (" +
+                                                   std::to_string(report.through_carve.carved) + " of " +
+                                                   std::to_string(report.through_carve.candidates) + " samples tried)")
           << (o.tunnel_fill.enabled && o.tunnel_fill.cut_bridges && !report.bridge_cut.skipped
                   ? ", bridge cut " + std::to_string(report.bridge_cut.cut) + " of " + std::to_string(report.bridge_cut.candidates) + " thin pieces"
                   : std::string())

@@ -13,6 +13,7 @@
 #include "pcp/mesh/fine_repair.hpp"
 #include "pcp/mesh/marching_cubes.hpp"
 #include "pcp/mesh/shell_centre.hpp"
+#include "pcp/mesh/through_carve.hpp"
 #include "pcp/mesh/tunnel_fill.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 #include "pcp/mesh/sign_repair.hpp"
@@ -87,6 +88,7 @@ struct ReconstructOptions {
     CavityFillOptions cavity_fill;   ///< fill enclosed positive pockets (hollow shells of noisy scans) on a dense grid (not in the paper)
     FineRepairOptions fine_repair;   ///< the sign repair's rule on the fine grid, for thin membranes (not in the paper)
     TunnelFillOptions tunnel_fill;   ///< plug passages through the solid two cells across or less, and cut solid bridges as thin, on a dense grid (not in the paper)
+    ThroughCarveOptions through_carve;  ///< make outside the inside samples on lines that cross no wall of the data (not in the paper)
     /// How marching cubes cuts an ambiguous face: the inside joined, so that the mesh bounds the
     /// solid of closed cubes whose handles and pockets the fills above count and remove (not in
     /// the paper). The asymptotic decider separates some diagonal pairs that solid joins: on the
@@ -138,6 +140,7 @@ struct ReconstructReport {
     FineRepairStats fine_repair;     ///< what the fine sign repair flipped
     CavityFillStats cavity_fill;     ///< what the cavity fill negated
     TunnelFillStats tunnel_fill;     ///< what the tunnel fill plugged
+    ThroughCarveStats through_carve; ///< what the through-line carve opened
     BridgeCutStats bridge_cut;       ///< what the bridge cut (the tunnel fill's dual) cut
     ShellCentreStats shell_centre;   ///< the vertices moved to the middle of their shell
     WindingSignStats winding_sign;   ///< the oriented normals and the winding-number tree

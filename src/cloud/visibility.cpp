@@ -20,13 +20,17 @@ struct Occupancy {
     double h = 0;
     Eigen::Vector3i dims;
     std::vector<std::uint8_t> blocked;
+    int f = 1;             ///< coarse voxels of the clearance: f x f x f voxels each
+    Eigen::Vector3i cdims;  ///< the clearance's grid
 
     std::size_t index(int i, int j, int k) const {
         return (static_cast<std::size_t>(k) * static_cast<std::size_t>(dims.y()) + static_cast<std::size_t>(j)) *
                    static_cast<std::size_t>(dims.x()) + static_cast<std::size_t>(i);
     }
 
-    Occupancy(const PointsF& points, const Aabb& box, int resolution, double r) {
+    /// factor: the clearance (below) on voxels this many times coarser (factor^3 times less work for
+    /// a fine grid; the same voxels are tested).
+    Occupancy(const PointsF& points, const Aabb& box, int resolution, double r, int factor = 1) : f(factor) {
         const Eigen::Vector3d extent = box.extent();
         h = extent.maxCoeff() / resolution;
         origin = box.min;
@@ -57,24 +61,33 @@ struct Occupancy {
         compute_clearance();
     }
 
-    /// Chessboard distance (in voxels, capped at 255) from each voxel to the nearest blocked one:
-    /// every voxel u with |u - v|_inf < clearance[v] is free. Two raster passes of the 26-neighbour
-    /// chamfer mask with unit weights compute it exactly.
+    /// Chessboard distance (in coarse voxels, capped at 255) from each coarse voxel to the nearest
+    /// blocked one (a coarse voxel is blocked when one of its voxels is): every coarse voxel u with
+    /// |u - v|_inf < clearance[v] is free. Two raster passes of the 26-neighbour chamfer mask with
+    /// unit weights compute it exactly.
     std::vector<std::uint8_t> clearance;
 
+    std::size_t cindex(int i, int j, int k) const {
+        return (static_cast<std::size_t>(k) * static_cast<std::size_t>(cdims.y()) + static_cast<std::size_t>(j)) *
+                   static_cast<std::size_t>(cdims.x()) + static_cast<std::size_t>(i);
+    }
+
     void compute_clearance() {
-        clearance.assign(blocked.size(), 255);
-        for (std::size_t v = 0; v < blocked.size(); ++v)
-            if (blocked[v]) clearance[v] = 0;
+        for (int c = 0; c < 3; ++c) cdims(c) = (dims(c) + f - 1) / f;
+        clearance.assign(static_cast<std::size_t>(cdims.prod()), 255);
+        for (int k = 0; k < dims.z(); ++k)
+            for (int j = 0; j < dims.y(); ++j)
+                for (int i = 0; i < dims.x(); ++i)
+                    if (blocked[index(i, j, k)]) clearance[cindex(i / f, j / f, k / f)] = 0;
         auto pass = [&](int sign) {
-            const int nx = dims.x(), ny = dims.y(), nz = dims.z();
+            const int nx = cdims.x(), ny = cdims.y(), nz = cdims.z();
             for (int kk = 0; kk < nz; ++kk) {
                 const int k = sign > 0 ? kk : nz - 1 - kk;
                 for (int jj = 0; jj < ny; ++jj) {
                     const int j = sign > 0 ? jj : ny - 1 - jj;
                     for (int ii = 0; ii < nx; ++ii) {
                         const int i = sign > 0 ? ii : nx - 1 - ii;
-                        std::uint8_t& d = clearance[index(i, j, k)];
+                        std::uint8_t& d = clearance[cindex(i, j, k)];
                         if (d == 0) continue;
                         // the 13 neighbours already visited in this raster order
                         for (int dk = -1; dk <= 0; ++dk)
@@ -83,7 +96,7 @@ struct Occupancy {
                                     if (dk == 0 && (dj > 0 || (dj == 0 && di >= 0))) continue;
                                     const int a = i + sign * di, b = j + sign * dj, c = k + sign * dk;
                                     if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz) continue;
-                                    const int n = clearance[index(a, b, c)] + 1;
+                                    const int n = clearance[cindex(a, b, c)] + 1;
                                     if (n < d) d = static_cast<std::uint8_t>(n);
                                 }
                     }
@@ -110,10 +123,11 @@ struct Occupancy {
                 if (u < 0.0 || u >= dims(c)) return true;
                 v(c) = static_cast<int>(u);
             }
-            const std::uint8_t d = clearance[index(v.x(), v.y(), v.z())];
-            if (d == 0) return false;
-            // Points up to (d - 1) voxels away along every axis lie in free voxels.
-            const auto skip = static_cast<std::int64_t>(std::floor((d - 1) / reach));
+            // The coarse clearance first (a smaller array): only a coarse voxel at 0 can hold a blocked voxel.
+            const std::uint8_t d = clearance[cindex(v.x() / f, v.y() / f, v.z() / f)];
+            if (d == 0 && blocked[index(v.x(), v.y(), v.z())]) return false;
+            // Points up to (d - 1) coarse voxels away along every axis lie in free voxels.
+            const auto skip = d == 0 ? std::int64_t(0) : static_cast<std::int64_t>(std::floor((d - 1) * f / reach));
             n += std::max<std::int64_t>(1, skip);
         }
     }
@@ -144,6 +158,17 @@ Eigen::Matrix3d random_rotation(Rng& rng) {
     return R;
 }
 
+/// The checks of the cloud and the box that the labels and the through lines make; the cloud's
+/// sampling scale (`what` names the caller in the messages).
+double checked_scale(const KdTree& tree, const Aabb& box, const char* what) {
+    PCP_CHECK(tree.size() >= 2, what << ": needs at least 2 points, got " << tree.size());
+    const Eigen::Vector3d extent = box.extent();
+    PCP_CHECK(extent.allFinite() && extent.minCoeff() > 0.0, what << ": the box must have a positive extent on every axis");
+    const double scale = sampling_scale(tree);
+    PCP_CHECK(scale > 0.0, what << ": the cloud has no spread (all points coincide)");
+    return scale;
+}
+
 }  // namespace
 
 VisibilityLabels label_by_visibility(const KdTree& tree, const Aabb& box, const VisibilityOptions& o) {
@@ -157,12 +182,8 @@ VisibilityLabels label_by_visibility(const KdTree& tree, const Aabb& box, const 
     PCP_CHECK(std::isfinite(o.dilation) && o.dilation > 0.0, "visibility: dilation must be > 0");
     PCP_CHECK(std::isfinite(o.min_distance) && o.min_distance >= 0.0, "visibility: min_distance must be >= 0");
     PCP_CHECK(o.outside_fraction > 0.0 && o.outside_fraction <= 1.0, "visibility: outside_fraction must be in (0, 1]");
-    PCP_CHECK(tree.size() >= 2, "visibility: needs at least 2 points, got " << tree.size());
+    const double scale = checked_scale(tree, box, "visibility");
     const Eigen::Vector3d extent = box.extent();
-    PCP_CHECK(extent.allFinite() && extent.minCoeff() > 0.0, "visibility: the box must have a positive extent on every axis");
-
-    const double scale = sampling_scale(tree);
-    PCP_CHECK(scale > 0.0, "visibility: the cloud has no spread (all points coincide)");
     VisibilityLabels out;
     out.stats.radius = o.dilation * scale;
     out.origin = box.min;
@@ -229,6 +250,56 @@ VisibilityLabels label_by_visibility(const KdTree& tree, const Aabb& box, const 
     }
     out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out;
+}
+
+struct ThroughLines::Impl {
+    Occupancy occ;
+    double radius;
+    std::vector<Eigen::Vector3d> dirs;
+    Impl(const PointsF& points, const Aabb& box, int resolution, double r, int rays, int factor)
+        : occ(points, box, resolution, r, factor), radius(r), dirs(fibonacci_sphere(rays)) {}
+};
+
+ThroughLines::ThroughLines(const KdTree& tree, const Aabb& box, int occupancy_resolution, double dilation, int rays,
+                           int clearance_factor) {
+    PCP_CHECK(occupancy_resolution >= 8 && occupancy_resolution <= 1024,
+              "through lines: occupancy_resolution must be in 8..1024, got " << occupancy_resolution);
+    PCP_CHECK(std::isfinite(dilation) && dilation > 0.0, "through lines: dilation must be > 0");
+    PCP_CHECK(rays >= 1 && rays <= 1024, "through lines: rays must be in 1..1024, got " << rays);
+    PCP_CHECK(clearance_factor >= 1 && clearance_factor <= 4, "through lines: clearance_factor must be in 1..4, got " << clearance_factor);
+    const double scale = checked_scale(tree, box, "through lines");
+    impl_ = std::make_unique<Impl>(tree.points(), box, occupancy_resolution, dilation * scale, rays, clearance_factor);
+}
+
+ThroughLines::~ThroughLines() = default;
+ThroughLines::ThroughLines(ThroughLines&&) noexcept = default;
+ThroughLines& ThroughLines::operator=(ThroughLines&&) noexcept = default;
+
+double ThroughLines::voxel() const { return impl_->occ.h; }
+double ThroughLines::radius() const { return impl_->radius; }
+
+int ThroughLines::clearance(const Eigen::Vector3d& p) const {
+    const Occupancy& occ = impl_->occ;
+    Eigen::Vector3i v;
+    for (int c = 0; c < 3; ++c) {
+        const double u = (p(c) - occ.origin(c)) / occ.h;
+        if (!(u >= 0.0 && u < occ.dims(c))) return 255;
+        v(c) = static_cast<int>(u);
+    }
+    if (occ.blocked[occ.index(v.x(), v.y(), v.z())]) return 0;
+    return std::clamp(occ.f * occ.clearance[occ.cindex(v.x() / occ.f, v.y() / occ.f, v.z() / occ.f)], 1, 255);
+}
+
+int ThroughLines::count(const Eigen::Vector3d& p, int enough, std::uint64_t seed, std::uint64_t stream) const {
+    PCP_CHECK(enough >= 1, "through lines: enough must be >= 1");
+    Rng rng(seed, stream);
+    const Eigen::Matrix3d R = random_rotation(rng);
+    int through = 0;
+    for (std::size_t r = 0; r < impl_->dirs.size() && through < enough; ++r) {
+        const Eigen::Vector3d d = R * impl_->dirs[r];
+        if (impl_->occ.escapes(p, d) && impl_->occ.escapes(p, -d)) ++through;
+    }
+    return through;
 }
 
 VisibilityLabels label_by_visibility(const KdTree& tree, const VisibilityOptions& o) {

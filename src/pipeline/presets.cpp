@@ -99,6 +99,7 @@ ReconstructOptions ReconstructOptions::preset(const std::string& name) {
         o.cavity_fill.enabled = false;
         o.fine_repair.enabled = false;
         o.tunnel_fill.enabled = false;
+        o.through_carve.enabled = false;  // not measured on rooms
         o.thin_offset = 0;
         return o;
     }

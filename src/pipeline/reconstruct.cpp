@@ -335,6 +335,9 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
         r.cavity_fill.labelled_cavities += again.labelled_cavities;
         r.cavity_fill.supported_cavities += again.supported_cavities;
     }
+    // Openings the field spans though lines pass through them that cross no wall of the data
+    // (include/pcp/mesh/through_carve.hpp).
+    r.through_carve = carve_through_lines(grid, cloud.tree(), options.through_carve);
     // The dual: bridges of solid as thin, cut where that removes a handle and leaves the solid whole.
     r.bridge_cut = cut_bridges(grid, options.tunnel_fill);
     r.winding_corrected = winding.corrected();

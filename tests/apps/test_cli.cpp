@@ -337,7 +337,7 @@ TEST_CASE("cli: pcp_reconstruct's surface-fit, fine-repair and fair options: bad
     CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
 }
 
-TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, shell-centre, recentre, smooth, winding-sign, sign-guide and label-votes options: bad values exit 2 naming the flag", "[cli]") {
+TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, through-carve, shell-centre, recentre, smooth, winding-sign, sign-guide and label-votes options: bad values exit 2 naming the flag", "[cli]") {
     const struct {
         const char* args;
         const char* message;
@@ -345,6 +345,7 @@ TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, shell-centre, recent
         {"--cavity-fill yes", "--cavity-fill must be on or off (got 'yes')"},
         {"--tunnel-fill maybe", "--tunnel-fill must be on or off (got 'maybe')"},
         {"--bridge-cut maybe", "--bridge-cut must be on or off (got 'maybe')"},
+        {"--through-carve 1", "--through-carve must be on or off (got '1')"},
         {"--shell-centre 2", "--shell-centre must be on or off (got '2')"},
         {"--recentre yes", "--recentre must be auto, on or off (got 'yes')"},
         {"--smooth maybe", "--smooth must be auto, on or off (got 'maybe')"},
@@ -360,7 +361,7 @@ TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, shell-centre, recent
         CHECK(r.err.find(c.message) != std::string::npos);
     }
     // Good values pass the option checks: the run then stops at the missing input, naming it.
-    const RunResult good = run(bin("pcp_reconstruct") + " --cavity-fill off --tunnel-fill off --bridge-cut off --shell-centre off --recentre on --smooth on --winding-sign on --winding-near 1 --sign-guide on --label-votes 4 /nonexistent/x.ply -o '" +
+    const RunResult good = run(bin("pcp_reconstruct") + " --cavity-fill off --tunnel-fill off --bridge-cut off --through-carve off --shell-centre off --recentre on --smooth on --winding-sign on --winding-near 1 --sign-guide on --label-votes 4 /nonexistent/x.ply -o '" +
                                (case_dir("cavity_fill") / "o.ply").string() + "'");
     INFO("stderr: " << good.err);
     CHECK(good.exit_code == 1);

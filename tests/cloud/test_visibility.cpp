@@ -169,3 +169,23 @@ TEST_CASE("visibility: bad options and degenerate input are refused", "[visibili
     flat.max.z() = flat.min.z();
     CHECK_THROWS_AS(pcp::label_by_visibility(cloud.tree(), flat, {}), pcp::Error);
 }
+
+TEST_CASE("visibility: through lines at points: none from a sphere's centre, many beside it", "[visibility]") {
+    const pcp::KdTree tree(pcp::sample_sphere(4000, 0.3, Eigen::Vector3d::Zero(), 4).points.cast<float>());
+    pcp::Aabb box;
+    box.min = Eigen::Vector3d::Constant(-0.5);
+    box.max = Eigen::Vector3d::Constant(0.5);
+    const pcp::ThroughLines lines(tree, box, 128, 0.5, 64);
+    CHECK(lines.voxel() == Approx(1.0 / 128));
+    CHECK(lines.radius() == Approx(0.5 * pcp::sampling_scale(tree)));
+    CHECK(lines.clearance(Eigen::Vector3d::Zero()) > 0);
+    CHECK(lines.clearance(Eigen::Vector3d(0.3, 0, 0)) == 0);  // on the surface: blocked
+    CHECK(lines.clearance(Eigen::Vector3d(2, 0, 0)) == 255);  // outside the grid
+    CHECK(lines.count(Eigen::Vector3d::Zero(), 64, 1, 0) == 0);
+    CHECK(lines.count(Eigen::Vector3d(0.42, 0.42, 0), 3, 1, 0) == 3);  // a corner of the box: lines pass the sphere by
+    CHECK(lines.count(Eigen::Vector3d(0.42, 0.42, 0), 64, 1, 7) == lines.count(Eigen::Vector3d(0.42, 0.42, 0), 64, 1, 7));
+    CHECK_THROWS_AS(pcp::ThroughLines(tree, box, 4, 0.5, 64), pcp::Error);
+    CHECK_THROWS_AS(pcp::ThroughLines(tree, box, 128, 0.0, 64), pcp::Error);
+    CHECK_THROWS_AS(pcp::ThroughLines(tree, box, 128, 0.5, 0), pcp::Error);
+    CHECK_THROWS_AS(lines.count(Eigen::Vector3d::Zero(), 0, 1, 0), pcp::Error);
+}

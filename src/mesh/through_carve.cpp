@@ -1,0 +1,137 @@
+// Through-line carve on the dense fine grid (see include/pcp/mesh/through_carve.hpp).
+#include "pcp/mesh/through_carve.hpp"
+
+#include "mesh/cubical.hpp"
+#include "pcp/cloud/visibility.hpp"
+#include "pcp/core/error.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <vector>
+
+namespace pcp {
+
+namespace {
+
+/// The walls a piece would lay bare: the inside samples beside it (26-neighbours) that stay inside
+/// (not in `through`), each once; `mark` is all zero on entry and on return.
+void bare_walls(const detail::Lattice& L, const std::vector<std::uint8_t>& inside, const std::vector<std::uint8_t>& through,
+                const std::vector<std::int64_t>& piece, std::vector<std::uint8_t>& mark, std::vector<std::int64_t>& walls) {
+    walls.clear();
+    for (std::int64_t g : piece) {
+        const int i = int(g % L.n1), j = int((g / L.n1) % L.n1), k = int(g / L.n1s);
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    if (!L.at(inside, i + dx, j + dy, k + dz)) continue;
+                    const std::size_t h = L.index(i + dx, j + dy, k + dz);
+                    if (through[h] || mark[h]) continue;
+                    mark[h] = 1;
+                    walls.push_back(static_cast<std::int64_t>(h));
+                }
+    }
+    for (std::int64_t h : walls) mark[static_cast<std::size_t>(h)] = 0;
+}
+
+}  // namespace
+
+ThroughCarveStats carve_through_lines(SdfGrid& grid, const KdTree& cloud, const ThroughCarveOptions& o) {
+    const auto t0 = std::chrono::steady_clock::now();
+    PCP_CHECK(o.voxels_per_cell >= 1 && o.voxels_per_cell <= 8, "through carve: voxels_per_cell must be in 1..8, got " << o.voxels_per_cell);
+    PCP_CHECK(o.rays >= 8 && o.rays <= 1024, "through carve: rays must be in 8..1024, got " << o.rays);
+    PCP_CHECK(o.min_through_lines >= 1 && o.min_through_lines <= o.rays,
+              "through carve: min_through_lines must be in 1..rays, got " << o.min_through_lines);
+    PCP_CHECK(std::isfinite(o.dilation) && o.dilation > 0.0, "through carve: dilation must be > 0");
+    PCP_CHECK(std::isfinite(o.max_distance) && o.max_distance > 0.0, "through carve: max_distance must be > 0");
+    PCP_CHECK(o.min_wall_support >= 0.0 && o.min_wall_support <= 1.0, "through carve: min_wall_support must be in [0, 1]");
+    ThroughCarveStats st;
+    if (!o.enabled) return st;
+    detail::Lattice L;
+    std::vector<std::uint8_t> inside;
+    if (!detail::dense_inside(grid, o.max_samples, L, inside)) {
+        st.skipped = true;
+        return st;
+    }
+
+    // 1. The occupancy grid of the dilated cloud.
+    const ThroughLines lines(cloud, grid.spec.box, std::min(1024, o.voxels_per_cell * L.R), o.dilation, o.rays, std::min(4, o.voxels_per_cell));
+    // Free voxels within max_distance of the data: the chessboard clearance c of a voxel puts its
+    // points at least r + (c - 1) h from every input point, so c - 1 <= (max - r) / h.
+    const double reach = o.max_distance * sampling_scale(cloud) - lines.radius();
+    if (reach <= 0) return st;
+    const int max_clearance = std::min(255, 1 + static_cast<int>(std::floor(reach / lines.voxel())));
+    const auto position = [&](std::int64_t g) { return grid.spec.sample_position(g % L.n1, (g / L.n1) % L.n1, g / L.n1s); };
+
+    // 2. The inside samples near the data on enough lines that cross no wall, tried from the
+    //    outside in: first those beside an outside sample, then those beside a sample found on
+    //    such lines (the deep inside of a solid is never tried).
+    std::vector<std::uint8_t> through(static_cast<std::size_t>(L.total), 0), tried(static_cast<std::size_t>(L.total), 0);
+    std::vector<std::int64_t> front, found;
+    const auto add_neighbours = [&](std::int64_t g, std::vector<std::int64_t>& out) {
+        const int i = int(g % L.n1), j = int((g / L.n1) % L.n1), k = int(g / L.n1s);
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    if (!L.at(inside, i + dx, j + dy, k + dz)) continue;
+                    const std::size_t h = L.index(i + dx, j + dy, k + dz);
+                    if (tried[h]) continue;
+                    tried[h] = 1;
+                    out.push_back(static_cast<std::int64_t>(h));
+                }
+    };
+    for (std::int64_t g = 0; g < L.total; ++g) {
+        if (!inside[static_cast<std::size_t>(g)]) continue;
+        const int i = int(g % L.n1), j = int((g / L.n1) % L.n1), k = int(g / L.n1s);
+        bool beside_outside = false;
+        for (int dz = -1; dz <= 1 && !beside_outside; ++dz)
+            for (int dy = -1; dy <= 1 && !beside_outside; ++dy)
+                for (int dx = -1; dx <= 1 && !beside_outside; ++dx) beside_outside = !L.at(inside, i + dx, j + dy, k + dz);
+        if (beside_outside) {
+            tried[static_cast<std::size_t>(g)] = 1;
+            front.push_back(g);
+        }
+    }
+    while (!front.empty()) {
+        const auto n = static_cast<std::int64_t>(front.size());
+        std::int64_t candidates = 0;
+#pragma omp parallel for schedule(dynamic, 256) reduction(+ : candidates)
+        for (std::int64_t s = 0; s < n; ++s) {
+            const std::int64_t g = front[static_cast<std::size_t>(s)];
+            const Eigen::Vector3d p = position(g);
+            const int c = lines.clearance(p);
+            if (c == 0 || c > max_clearance) continue;
+            ++candidates;
+            if (lines.count(p, o.min_through_lines, o.seed, static_cast<std::uint64_t>(g)) >= o.min_through_lines)
+                through[static_cast<std::size_t>(g)] = 1;
+        }
+        st.candidates += candidates;
+        found.clear();
+        for (std::int64_t g : front)
+            if (through[static_cast<std::size_t>(g)]) add_neighbours(g, found);
+        front.swap(found);
+    }
+
+    // 3. Their connected pieces, each made outside when the walls it lays bare stand on the data.
+    std::vector<std::uint8_t> seen(inside.size(), 0), mark(inside.size(), 0), carve(inside.size(), 0);
+    std::vector<std::int64_t> piece, walls;
+    for (std::int64_t g0 = 0; g0 < L.total; ++g0) {
+        if (!through[static_cast<std::size_t>(g0)] || seen[static_cast<std::size_t>(g0)]) continue;
+        piece.clear();
+        seen[static_cast<std::size_t>(g0)] = 1;
+        detail::flood_26(L, g0, seen, [&](std::size_t h) { return through[h] != 0; }, [&](std::int64_t g) { piece.push_back(g); });
+        ++st.pieces;
+        bare_walls(L, inside, through, piece, mark, walls);
+        std::int64_t on_data = 0;
+        for (std::int64_t h : walls) on_data += lines.clearance(position(h)) == 0;
+        if (static_cast<double>(on_data) < o.min_wall_support * static_cast<double>(walls.size())) continue;
+        ++st.opened;
+        st.carved += static_cast<std::int64_t>(piece.size());
+        for (std::int64_t g : piece) carve[static_cast<std::size_t>(g)] = 1;
+    }
+    if (st.opened > 0) detail::move_to_side(grid, carve, false);
+    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return st;
+}
+
+}  // namespace pcp
