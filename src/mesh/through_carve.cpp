@@ -14,23 +14,28 @@ namespace pcp {
 
 namespace {
 
+/// Calls fn(index) for each inside sample among the 26 neighbours of sample g (g itself too when
+/// it is inside).
+template <class Fn>
+void for_each_inside_neighbour(const detail::Lattice& L, const std::vector<std::uint8_t>& inside, std::int64_t g, Fn&& fn) {
+    const int i = int(g % L.n1), j = int((g / L.n1) % L.n1), k = int(g / L.n1s);
+    for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx)
+                if (L.at(inside, i + dx, j + dy, k + dz)) fn(L.index(i + dx, j + dy, k + dz));
+}
+
 /// The walls a piece would lay bare: the inside samples beside it (26-neighbours) that stay inside
 /// (not in `through`), each once; `mark` is all zero on entry and on return.
 void bare_walls(const detail::Lattice& L, const std::vector<std::uint8_t>& inside, const std::vector<std::uint8_t>& through,
                 const std::vector<std::int64_t>& piece, std::vector<std::uint8_t>& mark, std::vector<std::int64_t>& walls) {
     walls.clear();
-    for (std::int64_t g : piece) {
-        const int i = int(g % L.n1), j = int((g / L.n1) % L.n1), k = int(g / L.n1s);
-        for (int dz = -1; dz <= 1; ++dz)
-            for (int dy = -1; dy <= 1; ++dy)
-                for (int dx = -1; dx <= 1; ++dx) {
-                    if (!L.at(inside, i + dx, j + dy, k + dz)) continue;
-                    const std::size_t h = L.index(i + dx, j + dy, k + dz);
-                    if (through[h] || mark[h]) continue;
-                    mark[h] = 1;
-                    walls.push_back(static_cast<std::int64_t>(h));
-                }
-    }
+    for (std::int64_t g : piece)
+        for_each_inside_neighbour(L, inside, g, [&](std::size_t h) {
+            if (through[h] || mark[h]) return;
+            mark[h] = 1;
+            walls.push_back(static_cast<std::int64_t>(h));
+        });
     for (std::int64_t h : walls) mark[static_cast<std::size_t>(h)] = 0;
 }
 
@@ -69,16 +74,11 @@ ThroughCarveStats carve_through_lines(SdfGrid& grid, const KdTree& cloud, const 
     std::vector<std::uint8_t> through(static_cast<std::size_t>(L.total), 0), tried(static_cast<std::size_t>(L.total), 0);
     std::vector<std::int64_t> front, found;
     const auto add_neighbours = [&](std::int64_t g, std::vector<std::int64_t>& out) {
-        const int i = int(g % L.n1), j = int((g / L.n1) % L.n1), k = int(g / L.n1s);
-        for (int dz = -1; dz <= 1; ++dz)
-            for (int dy = -1; dy <= 1; ++dy)
-                for (int dx = -1; dx <= 1; ++dx) {
-                    if (!L.at(inside, i + dx, j + dy, k + dz)) continue;
-                    const std::size_t h = L.index(i + dx, j + dy, k + dz);
-                    if (tried[h]) continue;
-                    tried[h] = 1;
-                    out.push_back(static_cast<std::int64_t>(h));
-                }
+        for_each_inside_neighbour(L, inside, g, [&](std::size_t h) {
+            if (tried[h]) return;
+            tried[h] = 1;
+            out.push_back(static_cast<std::int64_t>(h));
+        });
     };
     for (std::int64_t g = 0; g < L.total; ++g) {
         if (!inside[static_cast<std::size_t>(g)]) continue;
