@@ -690,7 +690,8 @@ int main(int argc, char** argv) {
                                              : ", through-line carve opened " + std::to_string(report.through_carve.opened) + " of " +
                                                    std::to_string(report.through_carve.pieces) + " pieces (" +
                                                    std::to_string(report.through_carve.carved) + " of " +
-                                                   std::to_string(report.through_carve.candidates) + " samples tried)")
+                                                   std::to_string(report.through_carve.candidates) + " samples tried, " +
+                                                   fmt(report.through_carve.seconds) + " s)")
           << (o.tunnel_fill.enabled && o.tunnel_fill.cut_bridges && !report.bridge_cut.skipped
                   ? ", bridge cut " + std::to_string(report.bridge_cut.cut) + " of " + std::to_string(report.bridge_cut.candidates) + " thin pieces"
                   : std::string())

@@ -2,7 +2,6 @@
 #include "pcp/mesh/tunnel_fill.hpp"
 
 #include "mesh/cubical.hpp"
-#include "mesh/grid_samples.hpp"
 #include "pcp/core/error.hpp"
 
 #include <algorithm>
