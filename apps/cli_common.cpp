@@ -87,9 +87,18 @@ std::string apply_precision(const cxxopts::ParseResult& args) {
         throw UsageError(std::string("--precision: ") + e.what());
     }
     nn::set_gemm_precision(p);
-    if (p == nn::Precision::Bf16) return "bf16 (oneDNN)";
-    if (want == "auto") return "fp32 (bf16 unavailable: " + nn::bf16_unavailable_reason() + ")";
-    return "fp32";
+    std::string chosen = "fp32";
+    if (p == nn::Precision::Bf16)
+        chosen = "bf16 (oneDNN)";
+    else if (want == "auto")
+        chosen = "fp32 (bf16 unavailable: " + nn::bf16_unavailable_reason() + ")";
+    // The fp32 products (all of them in fp32; the small ones and the grid's in bf16) run on this
+    // back end; say why it is not OpenBLAS where this build has it.
+    const nn::GemmBackend backend = nn::gemm_backend();
+    chosen += std::string(", gemm ") + nn::gemm_backend_name(backend);
+    const std::string declined = nn::blas_default_declined_reason();
+    if (backend == nn::GemmBackend::Eigen && !declined.empty()) chosen += " (" + declined + ")";
+    return chosen;
 }
 
 int run_main(const char* program, const std::function<int()>& body) {

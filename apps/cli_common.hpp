@@ -54,7 +54,8 @@ void add_precision_option(cxxopts::Options& options, const std::string& group);
 
 /// Applies --precision to nn::set_gemm_precision; throws UsageError for an unknown value or for
 /// bf16 where it is not available. Returns what was chosen, for the parameter table and the
-/// summary: "bf16 (oneDNN)" or "fp32", with the reason when auto fell back to fp32.
+/// summary: "bf16 (oneDNN)" or "fp32", with the reason when auto fell back to fp32, then the GEMM
+/// back end (", gemm blas" or ", gemm eigen", with the reason when OpenBLAS was declined).
 std::string apply_precision(const cxxopts::ParseResult& args);
 
 /// Runs `body`, mapping exceptions to one line on stderr ("prog: error: ...") and an exit code.

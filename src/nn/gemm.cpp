@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cstdlib>
 #include <cstring>
 #include <string>
@@ -69,7 +70,15 @@ GemmBackend default_backend() {
                                         "with -DPCP_BLAS=ON and OpenBLAS installed), or unset PCP_GEMM");
         return b;
     }
-    return kHaveBlas ? GemmBackend::Blas : GemmBackend::Eigen;
+    return kHaveBlas && blas_default_declined_reason().empty() ? GemmBackend::Blas : GemmBackend::Eigen;
+}
+
+bool cpu_has_avx2_fma() {
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+#else
+    return false;
+#endif
 }
 
 template <class S>
@@ -119,6 +128,29 @@ GemmBackend gemm_backend() { return resolved<GemmBackend>(g_backend, default_bac
 
 const char* gemm_backend_name(GemmBackend backend) {
     return backend == GemmBackend::Blas ? "blas" : "eigen";
+}
+
+bool blas_core_suits_cpu(const std::string& core, bool cpu_has_avx2_fma) {
+    if (!cpu_has_avx2_fma) return true;
+    std::string lower(core);
+    std::transform(lower.begin(), lower.end(), lower.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
+    for (const char* avx2_class : {"haswell", "zen", "skylakex", "cooperlake", "sapphirerapids"})
+        if (lower == avx2_class) return true;
+    return false;
+}
+
+std::string blas_default_declined_reason() {
+    if constexpr (kHaveBlas) {
+        static const std::string reason = [] {
+            const std::string core = gemm_detail::blas_core_name();
+            if (blas_core_suits_cpu(core, cpu_has_avx2_fma())) return std::string();
+            return "OpenBLAS runs its " + (core.empty() ? std::string("unnamed") : core) +
+                   " kernel, which does not use this CPU's AVX2 and FMA";
+        }();
+        return reason;
+    }
+    return "";
 }
 
 GemmBackend parse_gemm_backend(const char* name) {

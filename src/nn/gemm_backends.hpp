@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <exception>
+#include <string>
 
 namespace pcp::nn::gemm_detail {
 
@@ -121,6 +122,9 @@ void eigen_sequential(const GemmArgs<S>& g);
 /// run_split). Throws pcp::Error when a size exceeds BLAS's 32-bit integers.
 template <class S>
 void gemm_blas(const GemmArgs<S>& g);
+
+/// The name of the kernel OpenBLAS chose for this CPU (openblas_get_corename()).
+std::string blas_core_name();
 
 // ---- oneDNN bf16 (src/nn/gemm_dnnl.cpp; float only) ----
 

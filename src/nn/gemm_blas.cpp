@@ -12,6 +12,7 @@
 
 #include <limits>
 #include <mutex>
+#include <string>
 
 namespace pcp::nn::gemm_detail {
 
@@ -73,5 +74,10 @@ void gemm_blas(const GemmArgs<S>& g) {
 
 template void gemm_blas<float>(const GemmArgs<float>&);
 template void gemm_blas<double>(const GemmArgs<double>&);
+
+std::string blas_core_name() {
+    const char* name = openblas_get_corename();
+    return name != nullptr ? std::string(name) : std::string();
+}
 
 }  // namespace pcp::nn::gemm_detail

@@ -449,6 +449,8 @@ TEST_CASE("cli: --precision: bad values exit 2 naming the flag, and the run's su
         INFO("stderr: " << r.err);
         CHECK(r.exit_code == 0);
         CHECK(r.err.find("| precision " + p) != std::string::npos);
+        CHECK(r.err.find(std::string(", gemm ") + pcp::nn::gemm_backend_name(pcp::nn::gemm_backend())) !=
+              std::string::npos);
         CHECK(fs::exists(out));
     }
 }

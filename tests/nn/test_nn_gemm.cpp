@@ -170,6 +170,22 @@ TEST_CASE("nn: gemm back-end selection", "[nn]") {
     CHECK_THROWS_WITH(gemm<float>(C, A, B, 1.0f, 0.0f), Catch::Contains("shape mismatch"));
 }
 
+TEST_CASE("nn: OpenBLAS's generic kernel is declined as the default on an AVX2 CPU", "[nn]") {
+    // On a CPU model it does not know, OpenBLAS 0.3.21 runs its SSE3 kernel "Prescott" (an Emerald
+    // Rapids Xeon: 25 GFLOP/s against Eigen's 160); only its AVX2-class kernels suit an AVX2 CPU.
+    for (const char* core : {"Haswell", "Zen", "SkylakeX", "Cooperlake", "SapphireRapids", "HASWELL"})
+        CHECK(blas_core_suits_cpu(core, true));
+    for (const char* core : {"Prescott", "Core2", "Sandybridge", "Nehalem", "Unknown", "", "Haswell2"})
+        CHECK_FALSE(blas_core_suits_cpu(core, true));
+    for (const char* core : {"Prescott", "Sandybridge", ""}) CHECK(blas_core_suits_cpu(core, false));
+    // Declining names the kernel, and only a build with the BLAS back end declines.
+    const std::string why = blas_default_declined_reason();
+    if (!why.empty()) {
+        CHECK(gemm_backend_available(GemmBackend::Blas));
+        CHECK(why.find("OpenBLAS runs its ") == 0);
+    }
+}
+
 TEST_CASE("nn: the eigen gemm back end keeps the caller's OpenMP thread count", "[nn]") {
     check_thread_counts_kept(GemmBackend::Eigen);
 }

@@ -11,7 +11,8 @@
 //     count (OpenBLAS's own threaded driver mallocs on every call); OpenBLAS's packing buffers
 //     come from its own persistent pool. 1.3-1.4x Eigen's rate on AVX2 (docs/BENCHMARKS.md).
 // The back end is a process-wide setting: set_gemm_backend(), or the environment variable
-// PCP_GEMM=eigen|blas read at the first call; by default Blas when built, else Eigen. Neither
+// PCP_GEMM=eigen|blas read at the first call; by default Blas when built and its kernel suits the
+// CPU (blas_default_declined_reason()), else Eigen. Neither
 // allocates on the heap after its first call at the largest shape (per thread).
 // Inside an OpenMP parallel region either back end runs single-threaded in the calling thread.
 //
@@ -69,6 +70,19 @@ GemmBackend gemm_backend();
 
 /// "eigen" or "blas".
 const char* gemm_backend_name(GemmBackend backend);
+
+/// Whether a BLAS kernel named `core` (OpenBLAS's openblas_get_corename(), compared without case)
+/// uses the vector units of a CPU that has (or lacks) AVX2 and FMA. On such a CPU only OpenBLAS's
+/// AVX2-class kernels do (Haswell, Zen, SkylakeX, Cooperlake, SapphireRapids); on a CPU model it
+/// does not know, OpenBLAS falls back to its SSE3 kernel "Prescott", measured 4-6 x slower than the
+/// Eigen back end (an Emerald Rapids Xeon with Debian 12's OpenBLAS 0.3.21). Without AVX2 and FMA
+/// any kernel is taken to suit.
+bool blas_core_suits_cpu(const std::string& core, bool cpu_has_avx2_fma);
+
+/// Why the default back end is Eigen although this build has the BLAS back end (its kernel does not
+/// suit this CPU, see blas_core_suits_cpu), or "" when it does not apply. PCP_GEMM=blas and
+/// set_gemm_backend() still select BLAS.
+std::string blas_default_declined_reason();
 
 /// Parses "eigen" or "blas" (as for PCP_GEMM or a --gemm option); throws pcp::Error otherwise.
 GemmBackend parse_gemm_backend(const char* name);
