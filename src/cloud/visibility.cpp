@@ -8,6 +8,8 @@
 #include <chrono>
 #include <cmath>
 
+#include <omp.h>
+
 namespace pcp {
 
 namespace {
@@ -37,28 +39,41 @@ struct Occupancy {
         for (int c = 0; c < 3; ++c) dims(c) = std::max(1, static_cast<int>(std::ceil(extent(c) / h)));
         blocked.assign(static_cast<std::size_t>(dims.prod()), 0);
         const double r2 = r * r;
-        for (Eigen::Index p = 0; p < points.rows(); ++p) {
-            const Eigen::Vector3d x = points.row(p).transpose().cast<double>();
-            Eigen::Vector3i lo, hi;
-            for (int c = 0; c < 3; ++c) {
-                lo(c) = std::max(0, static_cast<int>(std::floor((x(c) - r - origin(c)) / h)));
-                hi(c) = std::min(dims(c) - 1, static_cast<int>(std::floor((x(c) + r - origin(c)) / h)));
+        // Threads own slabs of k: each marks only its own voxels (the same voxels as one thread).
+#pragma omp parallel
+        {
+            const int t = omp_get_thread_num(), T = omp_get_num_threads();
+            const int k_first = int(std::int64_t(dims.z()) * t / T), k_last = int(std::int64_t(dims.z()) * (t + 1) / T) - 1;
+            for (Eigen::Index p = 0; p < points.rows(); ++p) {
+                const Eigen::Vector3d x = points.row(p).transpose().cast<double>();
+                Eigen::Vector3i lo, hi;
+                for (int c = 0; c < 3; ++c) {
+                    lo(c) = std::max(0, static_cast<int>(std::floor((x(c) - r - origin(c)) / h)));
+                    hi(c) = std::min(dims(c) - 1, static_cast<int>(std::floor((x(c) + r - origin(c)) / h)));
+                }
+                lo.z() = std::max(lo.z(), k_first);
+                hi.z() = std::min(hi.z(), k_last);
+                mark(x, lo, hi, r2);
             }
-            for (int k = lo.z(); k <= hi.z(); ++k)
-                for (int j = lo.y(); j <= hi.y(); ++j)
-                    for (int i = lo.x(); i <= hi.x(); ++i) {
-                        // squared distance from x to the voxel's box
-                        double d2 = 0.0;
-                        const Eigen::Vector3i v(i, j, k);
-                        for (int c = 0; c < 3; ++c) {
-                            const double a = origin(c) + h * v(c), b = a + h;
-                            const double d = x(c) < a ? a - x(c) : (x(c) > b ? x(c) - b : 0.0);
-                            d2 += d * d;
-                        }
-                        if (d2 <= r2) blocked[index(i, j, k)] = 1;
-                    }
         }
         compute_clearance();
+    }
+
+    /// Marks the voxels in [lo, hi] that meet the ball of squared radius r2 around x.
+    void mark(const Eigen::Vector3d& x, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi, double r2) {
+        for (int k = lo.z(); k <= hi.z(); ++k)
+            for (int j = lo.y(); j <= hi.y(); ++j)
+                for (int i = lo.x(); i <= hi.x(); ++i) {
+                    // squared distance from x to the voxel's box
+                    double d2 = 0.0;
+                    const Eigen::Vector3i v(i, j, k);
+                    for (int c = 0; c < 3; ++c) {
+                        const double a = origin(c) + h * v(c), b = a + h;
+                        const double d = x(c) < a ? a - x(c) : (x(c) > b ? x(c) - b : 0.0);
+                        d2 += d * d;
+                    }
+                    if (d2 <= r2) blocked[index(i, j, k)] = 1;
+                }
     }
 
     /// Chessboard distance (in coarse voxels, capped at 255) from each coarse voxel to the nearest

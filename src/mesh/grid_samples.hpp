@@ -3,6 +3,7 @@
 // lattice index, and the dense lattice of a grid's values.
 #pragma once
 
+#include "pcp/cloud/kdtree.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 
 #include <cmath>
@@ -41,5 +42,15 @@ inline std::vector<float> lattice_values(const SdfGrid& grid) {
     for_each_stored_sample(grid, [&](const float& v, std::int64_t g) { out[static_cast<std::size_t>(g)] = v; });
     return out;
 }
+
+/// Which lattice points lie within tau of an input point (index (k * n1 + j) * n1 + i, 1 = near):
+/// the same float distance and test as a nearest query per point (d <= tau), computed by stamping
+/// each input point's ball on the lattice (every lattice point in a ball marked), at a fraction of
+/// the cost where the balls cover few lattice points (20,000 points against the 2.1 M lattice
+/// points of 128 cells: 1.3 s -> 0.1 s on 2 cores). Where stamping would test more than
+/// `stamp_budget` lattice points, a nearest query per point of `lattice_points` instead (the
+/// other entries then stay 0). Defined in src/mesh/fine_repair.cpp.
+std::vector<std::int8_t> lattice_near_data(const GridSpec& spec, const std::vector<std::int64_t>& lattice_points,
+                                           const KdTree& cloud, double tau, std::int64_t stamp_budget);
 
 }  // namespace pcp::detail

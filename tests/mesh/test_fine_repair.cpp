@@ -8,6 +8,7 @@
 #include "pcp/mesh/fine_repair.hpp"
 #include "pcp/mesh/marching_cubes.hpp"
 #include "pcp/mesh/mesh_check.hpp"
+#include "mesh/grid_samples.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -112,4 +113,32 @@ TEST_CASE("fine repair: disabled or oversized grids are left alone, bad options 
     bad = {};
     bad.near_k = 0;
     CHECK_THROWS_AS(pcp::repair_fine_grid(grid, tree, bad), pcp::Error);
+}
+
+TEST_CASE("fine repair: the near-data mask stamped equals a nearest query per lattice point", "[fine_repair]") {
+    // A noisy sphere's points and a lattice off the unit cube's axes: every lattice point's verdict
+    // (within tau of a point or not) is the same by stamping as by the tree, for radii from below a
+    // cell to several cells.
+    pcp::PointCloud cloud = pcp::sample_sphere(3000, 0.35, Eigen::Vector3d(0.03, -0.02, 0.01), 7);
+    const pcp::KdTree tree(cloud.points.cast<float>());
+    pcp::GridSpec spec;
+    spec.resolution = 40;
+    spec.box.min = Eigen::Vector3d(-0.51, -0.47, -0.53);
+    spec.box.max = Eigen::Vector3d(0.49, 0.55, 0.5);
+    const std::int64_t n1 = spec.resolution + 1;
+    std::vector<std::int64_t> all(static_cast<std::size_t>(n1 * n1 * n1));
+    for (std::size_t g = 0; g < all.size(); ++g) all[g] = static_cast<std::int64_t>(g);
+    for (const double tau : {0.004, 0.0123, 0.05, 0.11}) {
+        const auto by_tree = pcp::detail::lattice_near_data(spec, all, tree, tau, 0);
+        const auto stamped = pcp::detail::lattice_near_data(spec, all, tree, tau, std::int64_t(1) << 40);
+        REQUIRE(stamped.size() == by_tree.size());
+        std::int64_t differ = 0, near = 0;
+        for (std::size_t g = 0; g < all.size(); ++g) {
+            differ += stamped[g] != by_tree[g];
+            near += by_tree[g];
+        }
+        INFO("tau " << tau << ": " << near << " near by the tree");
+        CHECK(near > 0);
+        CHECK(differ == 0);
+    }
 }
