@@ -175,6 +175,11 @@ int main(int argc, char** argv) {
         // product expression (what nn::gemm ran before it drove Eigen's kernel itself).
         std::printf("## SGEMM (512 x 512 times 512 x N, float, GFLOP/s; Eigen %d.%d.%d)\n\n",
                     EIGEN_WORLD_VERSION, EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION);
+        if (gemm_backend_available(GemmBackend::Blas)) {
+            const std::string declined = blas_default_declined_reason();
+            std::printf("OpenBLAS kernel: %s; default back end: %s%s%s\n\n", blas_core_name().c_str(),
+                        declined.empty() ? "blas" : "eigen", declined.empty() ? "" : " (", declined.empty() ? "" : (declined + ")").c_str());
+        }
         std::printf("| threads | N |");
         for (const Config& b : backends) std::printf(" nn::gemm %s |", b.name());
         std::printf(" Eigen `A * B` |\n| --- | --- |");

@@ -140,6 +140,11 @@ bool blas_core_suits_cpu(const std::string& core, bool cpu_has_avx2_fma) {
     return false;
 }
 
+std::string blas_core_name() {
+    if constexpr (kHaveBlas) return gemm_detail::blas_core_name();
+    return "";
+}
+
 std::string blas_default_declined_reason() {
     if constexpr (kHaveBlas) {
         static const std::string reason = [] {

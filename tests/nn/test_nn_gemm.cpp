@@ -178,11 +178,14 @@ TEST_CASE("nn: OpenBLAS's generic kernel is declined as the default on an AVX2 C
     for (const char* core : {"Prescott", "Core2", "Sandybridge", "Nehalem", "Unknown", "", "Haswell2"})
         CHECK_FALSE(blas_core_suits_cpu(core, true));
     for (const char* core : {"Prescott", "Sandybridge", ""}) CHECK(blas_core_suits_cpu(core, false));
+    CHECK(blas_core_name().empty() != gemm_backend_available(GemmBackend::Blas));
     // Declining names the kernel, and only a build with the BLAS back end declines.
     const std::string why = blas_default_declined_reason();
     if (!why.empty()) {
         CHECK(gemm_backend_available(GemmBackend::Blas));
         CHECK(why.find("OpenBLAS runs its ") == 0);
+        CHECK(why.find(blas_core_name()) != std::string::npos);
+        CHECK_FALSE(blas_core_suits_cpu(blas_core_name(), true));
     }
 }
 

@@ -79,6 +79,10 @@ const char* gemm_backend_name(GemmBackend backend);
 /// any kernel is taken to suit.
 bool blas_core_suits_cpu(const std::string& core, bool cpu_has_avx2_fma);
 
+/// The name of the kernel OpenBLAS runs on this CPU (openblas_get_corename()), "" in a build
+/// without the BLAS back end.
+std::string blas_core_name();
+
 /// Why the default back end is Eigen although this build has the BLAS back end (its kernel does not
 /// suit this CPU, see blas_core_suits_cpu), or "" when it does not apply. PCP_GEMM=blas and
 /// set_gemm_backend() still select BLAS.
