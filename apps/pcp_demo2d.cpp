@@ -65,11 +65,11 @@ int main(int argc, char** argv) {
         std::snprintf(line, sizeof line,
                       "pcp_demo2d: prior %.1f s (loss %.5f), query net %.1f s (loss %.5f)\n"
                       "  zero set of F_g to the square: mean %.4f, max %.4f; largest gap along the square %.4f "
-                      "(domain [-1, 1]^2, grid cell %.4f)\n"
+                      "(domain [-1, 1]^2, grid cell %.4f; sign repair flipped %d regions away from the square)\n"
                       "  predicted queries of the square's points, | |q_l'| - r |: median %.4f, 90th percentile %.4f "
                       "(r = %.2f)\n",
                       r.prior_seconds, r.prior_loss, r.fit_seconds, r.fit_loss, r.zero_set_mean_distance,
-                      r.zero_set_max_distance, r.square_max_gap, 2.0 / o.grid, r.predicted_radius_median,
+                      r.zero_set_max_distance, r.square_max_gap, 2.0 / o.grid, r.sign_repaired_regions, r.predicted_radius_median,
                       r.predicted_radius_p90, o.circle_radius);
         std::cout << line;
         for (const std::string& w : written) std::cout << "  wrote " << w << "\n";

@@ -197,6 +197,50 @@ double distance_to_square(const Eigen::Vector2d& p, double h) {
     return -std::max(dx, dy);  // inside: distance to the nearest side
 }
 
+int repair_sign_2d(Eigen::MatrixXd& field, const Eigen::Matrix2Xd& data, double near, const Demo2dOptions& o) {
+    const int n = o.grid + 1;
+    PCP_CHECK(field.rows() == n && field.cols() == n, "demo2d: the field must have (grid + 1)^2 nodes");
+    PCP_CHECK(near >= 0, "demo2d: the near distance must be >= 0");
+    const auto at = [n](int i, int j) { return std::size_t(i) * std::size_t(n) + std::size_t(j); };
+    std::vector<char> is_near(std::size_t(n) * std::size_t(n), 0);
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            const Eigen::Vector2d x(node(o, i), node(o, j));
+            is_near[at(i, j)] = (data.colwise() - x).colwise().squaredNorm().minCoeff() <= near * near;
+        }
+    std::vector<int> region(std::size_t(n) * std::size_t(n), -1);
+    std::vector<std::pair<int, int>> stack, members;
+    int flipped = 0, regions = 0;
+    for (int i0 = 0; i0 < n; ++i0)
+        for (int j0 = 0; j0 < n; ++j0) {
+            if (region[at(i0, j0)] >= 0) continue;
+            const bool negative = field(i0, j0) < 0;
+            bool keep = false;  // reaches the border or the data
+            members.clear();
+            stack.assign(1, {i0, j0});
+            region[at(i0, j0)] = regions;
+            while (!stack.empty()) {
+                const auto [i, j] = stack.back();
+                stack.pop_back();
+                members.push_back({i, j});
+                if (i == 0 || j == 0 || i == n - 1 || j == n - 1 || is_near[at(i, j)]) keep = true;
+                const int di[4] = {1, -1, 0, 0}, dj[4] = {0, 0, 1, -1};
+                for (int d = 0; d < 4; ++d) {
+                    const int a = i + di[d], b = j + dj[d];
+                    if (a < 0 || b < 0 || a >= n || b >= n || region[at(a, b)] >= 0 || (field(a, b) < 0) != negative) continue;
+                    region[at(a, b)] = regions;
+                    stack.push_back({a, b});
+                }
+            }
+            ++regions;
+            if (keep) continue;
+            for (const auto& [i, j] : members)
+                field(i, j) = negative ? std::max(-field(i, j), 1e-12) : std::min(-field(i, j), -1e-12);
+            ++flipped;
+        }
+    return flipped;
+}
+
 Demo2dResult run_demo2d(const Demo2dOptions& o, const ProgressCallback& progress) {
     check_options(o);
     Demo2dResult r;
@@ -303,6 +347,8 @@ Demo2dResult run_demo2d(const Demo2dOptions& o, const ProgressCallback& progress
     r.field = Eigen::Map<const Eigen::MatrixXd>(values.data(), nodes, nodes).transpose();  // (i, j)
     eval(grid_pts, values, nullptr, true);
     r.prior_field = Eigen::Map<const Eigen::MatrixXd>(values.data(), nodes, nodes).transpose();
+    // Near the square: within 4 grid cells of a sample (about 4.5 sample spacings with the defaults).
+    r.sign_repaired_regions = repair_sign_2d(r.field, r.square, 4 * 2 * o.extent / o.grid, o);
     r.zero_set = zero_segments(r.field, o);
 
     // ---- Measurements.

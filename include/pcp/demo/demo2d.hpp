@@ -56,7 +56,9 @@ struct Demo2dResult {
     Eigen::Matrix2Xd predicted;           ///< q_l' = Q's point for each of `queries`
     Eigen::Matrix2Xd square_predicted;    ///< q_l' for the square's own samples
     std::vector<std::array<Eigen::Vector2d, 2>> zero_set;  ///< segments of F_g = 0 (marching squares)
-    Eigen::MatrixXd field;                ///< F_g at the (grid + 1)^2 nodes, field(i, j) at x_i, y_j
+    Eigen::MatrixXd field;                ///< F_g at the (grid + 1)^2 nodes, field(i, j) at x_i, y_j, after
+                                          ///< repair_sign_2d (as the 3D pipeline's fine repair)
+    int sign_repaired_regions = 0;        ///< regions repair_sign_2d flipped (0 where F_g's sign was right)
     Eigen::MatrixXd prior_field;          ///< F(q, f_circle) at the same nodes
     double prior_loss = 0;                ///< mean pulling loss of the last 10 % of stage-1 steps
     double fit_loss = 0;                  ///< the same for stage 2
@@ -70,6 +72,14 @@ struct Demo2dResult {
     double predicted_radius_median = 0;   ///< median | |q_l'| - r | over the square's samples
     double predicted_radius_p90 = 0;      ///< its 90th percentile
 };
+
+/// The plane's counterpart of the 3D pipeline's fine sign repair (include/pcp/mesh/fine_repair.hpp):
+/// a region of one sign of `field` (4-connected nodes; field(i, j) at x_i, y_j of `o`'s grid) that
+/// has no node within `near` of a data point and does not reach the domain's border is negated. The
+/// pulling loss cannot tell a field from its negation where no query constrains it: on some seeds
+/// and roundings F_g grows a positive pocket in the middle of the square, far from every sample.
+/// Returns how many regions were negated.
+int repair_sign_2d(Eigen::MatrixXd& field, const Eigen::Matrix2Xd& data, double near, const Demo2dOptions& o);
 
 /// Runs both stages and measures the result (a few seconds on 2 cores with the defaults).
 /// @throws pcp::Error for options out of range (naming the option), or when `progress` cancels.
