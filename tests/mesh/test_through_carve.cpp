@@ -160,7 +160,7 @@ TEST_CASE("through carve: no piece whose bared walls stand away from the data", 
     CHECK(st_any.carved > st.carved);
 }
 
-TEST_CASE("through carve: off, or a sparse grid, changes nothing, bad options throw", "[through_carve]") {
+TEST_CASE("through carve: off, or a sparse grid, changes nothing, bad options throw", "[through_carve][heavy]") {
     const pcp::KdTree tree(sample_boxes(kSlats, 4000, 3));
     pcp::SdfGrid grid = plate_grid();
     const std::vector<float> before = grid.values;

@@ -177,7 +177,7 @@ TEST_CASE("nn: bf16 gemm keeps the caller's OpenMP thread count", "[nn][bf16]") 
 // and leaves the process in bf16 afterwards. The grid's evaluation batches (4096 points, in the
 // OpenMP workers) have shapes the training never uses, so bf16 evaluation creates new oneDNN
 // primitives where fp32 evaluation creates none: the counter tells which precision the grid ran.
-TEST_CASE("reconstruct: under bf16 the SDF grid runs in fp32 unless asked otherwise", "[nn][bf16]") {
+TEST_CASE("reconstruct: under bf16 the SDF grid runs in fp32 unless asked otherwise", "[nn][bf16][heavy]") {
     RestoreGemmSettings restore;
     set_gemm_precision(Precision::Bf16);
     pcp::ReconstructOptions o = pcp::ReconstructOptions::preset("fast");

@@ -172,7 +172,7 @@ TEST_CASE("nn: stage 2 fits a torus through a frozen sphere-trained F", "[nn]") 
     CHECK(last < 0.3 * first);
 }
 
-TEST_CASE("nn: in bf16, stage 2 fits the torus as well as in fp32", "[nn][bf16]") {
+TEST_CASE("nn: in bf16, stage 2 fits the torus as well as in fp32", "[nn][bf16][heavy]") {
     pcp::test::RestoreGemmSettings restore;
     set_gemm_precision(Precision::Fp32);
     const auto [first32, last32] = fit_torus();

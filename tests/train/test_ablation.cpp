@@ -84,7 +84,7 @@ TEST_CASE("ablation: names round-trip, unknown names are refused with the list",
     CHECK_THROWS_WITH(pcp::parse_query_ablation("no-dq"), Catch::Contains("unknown ablation 'no-dq'") && Catch::Contains("tune-prior"));
 }
 
-TEST_CASE("ablation: every mode fits a torus through a sphere prior (loss and |SDF| fall)", "[ablation]") {
+TEST_CASE("ablation: every mode fits a torus through a sphere prior (loss and |SDF| fall)", "[ablation][heavy]") {
     const ThreadsGuard threads(2);
     const int steps = 400;
     for (QueryAblation mode : kModes) {
