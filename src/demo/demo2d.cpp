@@ -206,19 +206,19 @@ int repair_sign_2d(Eigen::MatrixXd& field, const Eigen::Matrix2Xd& data, double 
     for (int i = 0; i < n; ++i)
         for (int j = 0; j < n; ++j) {
             const Eigen::Vector2d x(node(o, i), node(o, j));
-            is_near[at(i, j)] = (data.colwise() - x).colwise().squaredNorm().minCoeff() <= near * near;
+            is_near[at(i, j)] = (data.col(nearest(data, x)) - x).norm() <= near;
         }
-    std::vector<int> region(std::size_t(n) * std::size_t(n), -1);
+    std::vector<char> seen(std::size_t(n) * std::size_t(n), 0);
     std::vector<std::pair<int, int>> stack, members;
-    int flipped = 0, regions = 0;
+    int flipped = 0;
     for (int i0 = 0; i0 < n; ++i0)
         for (int j0 = 0; j0 < n; ++j0) {
-            if (region[at(i0, j0)] >= 0) continue;
+            if (seen[at(i0, j0)]) continue;
             const bool negative = field(i0, j0) < 0;
             bool keep = false;  // reaches the border or the data
             members.clear();
             stack.assign(1, {i0, j0});
-            region[at(i0, j0)] = regions;
+            seen[at(i0, j0)] = 1;
             while (!stack.empty()) {
                 const auto [i, j] = stack.back();
                 stack.pop_back();
@@ -227,12 +227,11 @@ int repair_sign_2d(Eigen::MatrixXd& field, const Eigen::Matrix2Xd& data, double 
                 const int di[4] = {1, -1, 0, 0}, dj[4] = {0, 0, 1, -1};
                 for (int d = 0; d < 4; ++d) {
                     const int a = i + di[d], b = j + dj[d];
-                    if (a < 0 || b < 0 || a >= n || b >= n || region[at(a, b)] >= 0 || (field(a, b) < 0) != negative) continue;
-                    region[at(a, b)] = regions;
+                    if (a < 0 || b < 0 || a >= n || b >= n || seen[at(a, b)] || (field(a, b) < 0) != negative) continue;
+                    seen[at(a, b)] = 1;
                     stack.push_back({a, b});
                 }
             }
-            ++regions;
             if (keep) continue;
             for (const auto& [i, j] : members)
                 field(i, j) = negative ? std::max(-field(i, j), 1e-12) : std::min(-field(i, j), -1e-12);

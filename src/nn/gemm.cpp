@@ -148,7 +148,7 @@ std::string blas_core_name() {
 std::string blas_default_declined_reason() {
     if constexpr (kHaveBlas) {
         static const std::string reason = [] {
-            const std::string core = gemm_detail::blas_core_name();
+            const std::string core = blas_core_name();
             if (blas_core_suits_cpu(core, cpu_has_avx2_fma())) return std::string();
             return "OpenBLAS runs its " + (core.empty() ? std::string("unnamed") : core) +
                    " kernel, which does not use this CPU's AVX2 and FMA";
