@@ -276,29 +276,35 @@ void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, st
     stats.evaluations += total;
 }
 
-/// Dense with far_factor: the lattice refined cell by cell from the blocks down, so that only the
+/// far_factor > 0: the stored blocks refined cell by cell down from the blocks, so that only the
 /// samples near the zero set are evaluated. A cell of the current level whose 8 corners have one
 /// sign and |value| > far_factor * its half-diagonal is far from the zero set; it is filled later
 /// by trilinear interpolation of its corners. Any other cell is split into its 8 halves for the
 /// next level (their corners evaluated), and at the last of options.far_levels levels every
-/// sample of its closed box is evaluated. The far and the evaluated cells partition the lattice
-/// (a cell holds the samples of its half-open box, plus those on the grid's last plane), so each
-/// interpolated sample has one cell and the parallel fill is deterministic. Every value is
-/// written to its owner block (sample_owner's first choice, which a dense grid always stores);
-/// canonicalize copies it to the other blocks.
-class DenseRefinement {
+/// sample of its closed box is evaluated. Every value is written to its owner block
+/// (sample_owner); canonicalize copies it to the other blocks. The far and the evaluated cells
+/// partition each block's half-open box (a cell holds the samples of its half-open box, plus
+/// those on the grid's last plane), and a block owns its half-open box, so the parallel fill is
+/// deterministic. A sparse band's block whose upper neighbour is not stored also owns the samples
+/// of that upper face: a serial pass fills those a far cell left, in the fixed order of the cells.
+class GridRefinement {
 public:
-    DenseRefinement(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, const SdfGridOptions& options,
-                    SdfGridStats& stats, std::chrono::steady_clock::time_point start)
-        : sdf_(sdf), spec_(spec), G_(G), L_(G.L), options_(options), stats_(stats), start_(start),
-          total_(std::int64_t(G.L.R + 1) * (G.L.R + 1) * (G.L.R + 1)) {}
+    /// Refines blocks [first, K) of G (the samples they share with earlier blocks and own are
+    /// evaluated or filled again).
+    GridRefinement(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, std::size_t first, const SdfGridOptions& options,
+                   SdfGridStats& stats, std::chrono::steady_clock::time_point start)
+        : sdf_(sdf), spec_(spec), G_(G), L_(G.L), options_(options), stats_(stats), start_(start), first_(first),
+          dense_(G.keys.size() == std::size_t(G.L.nb) * G.L.nb * G.L.nb),
+          total_(dense_ ? std::int64_t(G.L.R + 1) * (G.L.R + 1) * (G.L.R + 1) : std::int64_t(G.keys.size() - first) * G.L.S3) {
+        // A dense grid stores block key k at index k (evaluate_impl), which at() relies on.
+        for (std::size_t k = 0; dense_ && k < G.keys.size(); ++k) PCP_CHECK(G.keys[k] == std::int64_t(k), "sdf_grid: dense blocks out of order");
+    }
 
     void run() {
         report(options_, 0, total_, start_);
         std::vector<Cell> cells;
-        for (int bz = 0; bz < L_.nb; ++bz)
-            for (int by = 0; by < L_.nb; ++by)
-                for (int bx = 0; bx < L_.nb; ++bx) cells.push_back({Eigen::Vector3i(bx, by, bz) * L_.B, L_.B});
+        cells.reserve(G_.keys.size() - first_);
+        for (std::size_t b = first_; b < G_.keys.size(); ++b) cells.push_back({L_.coords(G_.keys[b]) * L_.B, L_.B});
         std::vector<Cell> far, last;
         for (int level = 0; !cells.empty(); ++level) {
             std::vector<std::int64_t> corners;
@@ -329,6 +335,7 @@ public:
         }
         evaluate(samples);
         fill(far);
+        if (!dense_) fill_upper_faces(far);
         report(options_, total_, total_, start_);
     }
 
@@ -355,12 +362,25 @@ private:
         const std::int64_t n1 = L_.R + 1;
         return {int(n % n1), int((n / n1) % n1), int(n / (n1 * n1))};
     }
-    /// The owner's stored copy of global sample g (dense grid: block key = block index).
+    /// The owner's stored copy of global sample g, which must lie in a stored block's closed box
+    /// (dense grid: the block that starts at or before it, whose index is its key).
     float& at(const Eigen::Vector3i& g) const {
-        const Eigen::Vector3i X(std::min(g.x() / L_.B, L_.nb - 1), std::min(g.y() / L_.B, L_.nb - 1),
-                                std::min(g.z() / L_.B, L_.nb - 1));
+        Eigen::Vector3i X(std::min(g.x() / L_.B, L_.nb - 1), std::min(g.y() / L_.B, L_.nb - 1),
+                          std::min(g.z() / L_.B, L_.nb - 1));
+        std::int64_t index = L_.key(X.x(), X.y(), X.z());
+        if (!dense_) {
+            Eigen::Vector3i O;
+            const int owner = sample_owner(G_, g, O);
+            if (owner >= 0) {
+                X = O;
+                index = owner;
+            } else {
+                index = G_.find(X.x(), X.y(), X.z());
+            }
+            PCP_CHECK(index >= 0, "sdf_grid: refinement sample " << g.transpose() << " lies in no stored block");
+        }
         const Eigen::Vector3i l = g - X * L_.B;
-        return G_.values[std::size_t(L_.key(X.x(), X.y(), X.z()) * L_.S3 + L_.local_index(l.x(), l.y(), l.z()))];
+        return G_.values[std::size_t(index * L_.S3 + L_.local_index(l.x(), l.y(), l.z()))];
     }
     bool is_far(const Cell& c) const {
         const double bound = options_.far_factor * 0.5 * (extent(c).cast<double>().array() * spec_.spacing().array()).matrix().norm();
@@ -433,6 +453,31 @@ private:
         stats_.interpolated_samples += filled;
     }
 
+    /// Sparse band: the samples on the upper faces of the far cells still empty after fill(),
+    /// which their block owns because the neighbour above is not stored, from the first far cell
+    /// (in cell order) that holds them.
+    void fill_upper_faces(const std::vector<Cell>& far) {
+        std::int64_t filled = 0;
+        for (const Cell& c : far) {
+            const Eigen::Vector3i e = extent(c);
+            float v[8];
+            for (int q = 0; q < 8; ++q) v[q] = at(corner(c, q));
+            for (int k = 0; k <= e.z(); ++k)
+                for (int j = 0; j <= e.y(); ++j)
+                    for (int i = 0; i <= e.x(); ++i) {
+                        if (i < e.x() && j < e.y() && k < e.z()) continue;  // the half-open box: filled
+                        float& s = at(c.origin + Eigen::Vector3i(i, j, k));
+                        if (!std::isnan(s)) continue;
+                        const float x = float(i) / float(e.x()), y = float(j) / float(e.y()), z = float(k) / float(e.z());
+                        const float lo = (1 - y) * ((1 - x) * v[0] + x * v[1]) + y * ((1 - x) * v[2] + x * v[3]);
+                        const float hi = (1 - y) * ((1 - x) * v[4] + x * v[5]) + y * ((1 - x) * v[6] + x * v[7]);
+                        s = (1 - z) * lo + z * hi;
+                        ++filled;
+                    }
+        }
+        stats_.interpolated_samples += filled;
+    }
+
     const SdfBatchFn& sdf_;
     const GridSpec& spec_;
     Builder& G_;
@@ -440,6 +485,8 @@ private:
     const SdfGridOptions& options_;
     SdfGridStats& stats_;
     std::chrono::steady_clock::time_point start_;
+    std::size_t first_;
+    bool dense_;  // every block stored (block index = key)
     std::int64_t total_;
     std::int64_t done_ = 0;
 };
@@ -620,8 +667,8 @@ SdfGrid evaluate_impl(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGrid
 
     G.values.assign(G.keys.size() * std::size_t(G.L.S3), std::numeric_limits<float>::quiet_NaN());
     G.rebuild_lookup();
-    if (options.band == NarrowBand::Dense && options.far_factor > 0)
-        DenseRefinement(sdf, spec, G, options, grid.stats, start).run();
+    if (options.far_factor > 0)
+        GridRefinement(sdf, spec, G, 0, options, grid.stats, start).run();
     else
         evaluate_blocks(sdf, spec, G, 0, options, grid.stats, start);
     canonicalize(G);
@@ -633,7 +680,10 @@ SdfGrid evaluate_impl(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGrid
         G.keys.insert(G.keys.end(), added.begin(), added.end());
         G.values.resize(G.keys.size() * std::size_t(G.L.S3), std::numeric_limits<float>::quiet_NaN());
         G.rebuild_lookup();
-        evaluate_blocks(sdf, spec, G, old, options, grid.stats, start);
+        if (options.far_factor > 0)
+            GridRefinement(sdf, spec, G, old, options, grid.stats, start).run();
+        else
+            evaluate_blocks(sdf, spec, G, old, options, grid.stats, start);
         canonicalize(G);
         grid.stats.grown_blocks += std::int64_t(added.size());
         ++grid.stats.growth_rounds;

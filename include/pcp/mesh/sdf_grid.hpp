@@ -62,15 +62,16 @@ struct SdfGridOptions {
     bool grow = true;              ///< add every missing block into which the zero set crosses from a stored one,
                                    ///< until none is left: the band then never cuts the surface open
     int batch_size = 4096;         ///< points per SdfBatchFn call (blocks are grouped up to this size)
-    /// Dense: the field is first evaluated at the blocks' corners only; a block whose 8 corners
-    /// have one sign and |sdf| > far_factor * its half-diagonal is far from the zero set (for a
-    /// true distance, factor 1 is exact) and is filled by trilinear interpolation of its corners
-    /// instead of being evaluated: every sample of the lattice is still stored (the cavity and
-    /// tunnel fills need them all), with the right sign and a magnitude above
-    /// (far_factor - 1) * half-diagonal for a 1-Lipschitz field, but only the blocks near the
-    /// zero set cost evaluations. 0 = evaluate every sample (the reference).
+    /// Any band: the field is first evaluated at the stored blocks' corners only; a block whose 8
+    /// corners have one sign and |sdf| > far_factor * its half-diagonal is far from the zero set
+    /// (for a true distance, factor 1 is exact) and is filled by trilinear interpolation of its
+    /// corners instead of being evaluated: every sample of the stored blocks is still stored (the
+    /// cavity and tunnel fills need the whole lattice: Dense), with the right sign and a magnitude
+    /// above (far_factor - 1) * half-diagonal for a 1-Lipschitz field, but only the cells near
+    /// the zero set cost evaluations; the blocks the growth pass adds are refined the same way.
+    /// 0 = evaluate every sample (the reference).
     double far_factor = 0.0;
-    /// Dense with far_factor: levels of the refinement. 1 = blocks only (a block that is not far
+    /// With far_factor: levels of the refinement. 1 = blocks only (a block that is not far
     /// is evaluated whole); each further level splits the cells that are not far into their 8
     /// halves and tests those the same way (their corners evaluated), so that at 3 levels of 8-cell
     /// blocks only the 2-cell cells near the zero set are evaluated whole. block_cells must be
@@ -83,8 +84,8 @@ struct SdfGridOptions {
 struct SdfGridStats {
     std::int64_t evaluations = 0;         ///< SDF values computed in total (coarse + blocks)
     std::int64_t coarse_evaluations = 0;  ///< of which octree node centres (Coarse band) or block corners (far_factor)
-    std::int64_t interpolated_blocks = 0; ///< Dense with far_factor: blocks filled from their corners
-    std::int64_t interpolated_samples = 0; ///< Dense with far_factor: samples filled from the corners of a far cell
+    std::int64_t interpolated_blocks = 0; ///< with far_factor: blocks filled from their corners
+    std::int64_t interpolated_samples = 0; ///< with far_factor: samples filled from the corners of a far cell
     std::int64_t grown_blocks = 0;        ///< blocks added by the growth pass
     int growth_rounds = 0;                ///< growth passes that added blocks
 };
