@@ -295,11 +295,11 @@ int main(int argc, char** argv) {
                            "bounds the memory of huge inputs; the mesh and --normals still cover every point)",
              cxxopts::value<long>()->default_value(std::to_string(d.max_fit_points)))
             ("resolution", "Marching-cubes cells along the longest axis", cxxopts::value<int>()->default_value(std::to_string(d.resolution)))
-            ("grid-far-factor", "Dense grids (for the cavity and tunnel fills, and the sign repair's coarse grid): blocks whose corners are farther than this x the "
+            ("grid-far-factor", "The fine grid (dense for the cavity and tunnel fills, or its narrow band) and the sign repair's coarse grid: blocks whose corners are farther than this x the "
                                 "block's half-diagonal from the zero set, all of one sign, are interpolated from their corners "
                                 "instead of evaluated (0: evaluate every sample)",
              cxxopts::value<double>()->default_value(fmt(d.grid.far_factor)))
-            ("grid-far-levels", "Dense grid: levels of that test, each splitting the cells that are not far into 8 halves "
+            ("grid-far-levels", "Both grids: levels of that test, each splitting the cells that are not far into 8 halves "
                                 "(1: the 8-cell blocks only; 3: down to 2-cell cells, the rest evaluated)",
              cxxopts::value<int>()->default_value(std::to_string(d.grid.far_levels)))
             ("iso", "Iso level", cxxopts::value<double>()->default_value(fmt(d.iso)))

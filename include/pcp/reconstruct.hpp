@@ -72,11 +72,12 @@ struct ReconstructOptions {
     /// no sheet there. Unit-box units (the cloud's longest edge is 1); 0: off. Measured on every
     /// shared case (docs/BENCHMARKS.md, "Thin parts kept whole").
     double thin_offset = 0.002;
-    /// Narrow-band settings. When the fills need the dense grid, the blocks whose corners certify
-    /// that they are far from the zero set are interpolated, not evaluated (far_factor 2, the
-    /// octree band's factor; docs/BENCHMARKS.md, "The dense grid from the blocks near the surface"),
-    /// and the others are split down to 2-cell cells the same way (far_levels 3; "The dense grid
-    /// refined down to 2-cell cells").
+    /// Narrow-band settings. The blocks whose corners certify that they are far from the zero set
+    /// are interpolated, not evaluated (far_factor 2, the octree band's factor; docs/BENCHMARKS.md,
+    /// "The dense grid from the blocks near the surface"), and the others are split down to 2-cell
+    /// cells the same way (far_levels 3; "The dense grid refined down to 2-cell cells"): in the
+    /// dense grid the fills need, and in the sparse band of larger grids ("The sparse band refined
+    /// too").
     SdfGridOptions grid = [] {
         SdfGridOptions g;
         g.far_factor = 2.0;

@@ -118,15 +118,27 @@ struct Builder {
     std::vector<std::int64_t> keys;
     std::vector<float> values;
     std::vector<std::pair<std::int64_t, int>> lookup;  // (key, index), sorted by key
+    /// Block index by key, -1 where not stored: a table of nb^3 entries where that is at most
+    /// kMaxTable (8-cell blocks up to 2,048 cells; 64 MiB), else empty and find() searches lookup.
+    /// find() runs for every sample the refinement and the owner rule touch.
+    std::vector<std::int32_t> table;
+    static constexpr std::int64_t kMaxTable = std::int64_t(1) << 24;
 
     void rebuild_lookup() {
         lookup.resize(keys.size());
         for (std::size_t b = 0; b < keys.size(); ++b) lookup[b] = {keys[b], int(b)};
         std::sort(lookup.begin(), lookup.end());
+        const std::int64_t n = std::int64_t(L.nb) * L.nb * L.nb;
+        table.clear();
+        if (n <= kMaxTable) {
+            table.assign(std::size_t(n), -1);
+            for (std::size_t b = 0; b < keys.size(); ++b) table[std::size_t(keys[b])] = std::int32_t(b);
+        }
     }
     int find(int bx, int by, int bz) const {
         if (bx < 0 || by < 0 || bz < 0 || bx >= L.nb || by >= L.nb || bz >= L.nb) return -1;
         const std::int64_t k = L.key(bx, by, bz);
+        if (!table.empty()) return table[std::size_t(k)];
         auto it = std::lower_bound(lookup.begin(), lookup.end(), std::make_pair(k, -1));
         return (it != lookup.end() && it->first == k) ? it->second : -1;
     }
