@@ -2,7 +2,7 @@
 # The README's test command: installs dependencies, builds Release with warnings as errors, runs
 # every CTest label (unit, e2e, realdata, install-consumer), runs the readers' libFuzzer targets
 # for a short smoke (clang, build-fuzz/), then builds again with
-# AddressSanitizer + UndefinedBehaviorSanitizer and runs the unit tests under them (without the
+# AddressSanitizer + UndefinedBehaviorSanitizer (its arithmetic checks: CMakeLists.txt) and runs the unit tests under them (without the
 # [heavy] and [cli] cases). After each
 # CTest run it prints which GEMM back ends and precisions that build ran (test cases of an absent
 # one are reported Skipped by CTest).
