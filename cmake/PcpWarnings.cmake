@@ -45,3 +45,14 @@ function(pcp_sanitizer_light target)
     target_compile_options(${target} PRIVATE -O0)
   endif()
 endfunction()
+
+# Code that parses options and calls the library, or checks its results (the apps' own files and
+# the tests): -O1 where the build type optimises, -O0 under the sanitizers (pcp_sanitizer_light);
+# the library keeps the build type's flags. The README's test command has a time budget.
+function(pcp_light_code_opt target)
+  if(PCP_SANITIZE)
+    pcp_sanitizer_light(${target})
+  elseif(CMAKE_BUILD_TYPE MATCHES "^(Release|RelWithDebInfo|MinSizeRel)$")
+    target_compile_options(${target} PRIVATE -O1)
+  endif()
+endfunction()

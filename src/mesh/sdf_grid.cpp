@@ -437,6 +437,14 @@ private:
         return n;
     }
 
+    /// Sample (i, j, k) of a cell of extent e from its corner values v (corner order of corner()).
+    static float trilinear(const float v[8], const Eigen::Vector3i& e, int i, int j, int k) {
+        const float x = float(i) / float(e.x()), y = float(j) / float(e.y()), z = float(k) / float(e.z());
+        const float lo = (1 - y) * ((1 - x) * v[0] + x * v[1]) + y * ((1 - x) * v[2] + x * v[3]);
+        const float hi = (1 - y) * ((1 - x) * v[4] + x * v[5]) + y * ((1 - x) * v[6] + x * v[7]);
+        return (1 - z) * lo + z * hi;
+    }
+
     /// The samples of the far cells' half-open boxes that were not evaluated, from their corners.
     void fill(const std::vector<Cell>& far) {
         std::int64_t filled = 0;
@@ -455,10 +463,7 @@ private:
                     for (int i = 0; i <= end.x(); ++i) {
                         float& s = at(c.origin + Eigen::Vector3i(i, j, k));
                         if (!std::isnan(s)) continue;
-                        const float x = float(i) / float(e.x()), y = float(j) / float(e.y()), z = float(k) / float(e.z());
-                        const float lo = (1 - y) * ((1 - x) * v[0] + x * v[1]) + y * ((1 - x) * v[2] + x * v[3]);
-                        const float hi = (1 - y) * ((1 - x) * v[4] + x * v[5]) + y * ((1 - x) * v[6] + x * v[7]);
-                        s = (1 - z) * lo + z * hi;
+                        s = trilinear(v, e, i, j, k);
                         ++filled;
                     }
         }
@@ -480,10 +485,7 @@ private:
                         if (i < e.x() && j < e.y() && k < e.z()) continue;  // the half-open box: filled
                         float& s = at(c.origin + Eigen::Vector3i(i, j, k));
                         if (!std::isnan(s)) continue;
-                        const float x = float(i) / float(e.x()), y = float(j) / float(e.y()), z = float(k) / float(e.z());
-                        const float lo = (1 - y) * ((1 - x) * v[0] + x * v[1]) + y * ((1 - x) * v[2] + x * v[3]);
-                        const float hi = (1 - y) * ((1 - x) * v[4] + x * v[5]) + y * ((1 - x) * v[6] + x * v[7]);
-                        s = (1 - z) * lo + z * hi;
+                        s = trilinear(v, e, i, j, k);
                         ++filled;
                     }
         }

@@ -112,6 +112,19 @@ TEST_CASE("sdf_grid: both narrow bands give exactly the dense mesh", "[sdf_grid]
     }
 }
 
+namespace {
+/// A sample of a grid with far cells interpolated (b) against the fully evaluated grid's (a): finite,
+/// of the same sign, and where it differs (counted in differ) at least a half-diagonal from zero.
+void require_far_value(float a, float b, double half_diagonal, std::int64_t& differ) {
+    REQUIRE(std::isfinite(b));
+    REQUIRE((a > 0) == (b > 0));
+    if (a != b) {
+        ++differ;
+        REQUIRE(std::abs(b) > half_diagonal);
+    }
+}
+}  // namespace
+
 TEST_CASE("sdf_grid: a dense grid with far cells interpolated keeps every sign and the exact mesh", "[sdf_grid]") {
     // Blocks of 4 at 61 cells (the last block truncated to 1 cell): the far cells are filled from
     // their corners, every other sample is the SDF's own value. One level tests the blocks only;
@@ -150,13 +163,7 @@ TEST_CASE("sdf_grid: a dense grid with far cells interpolated keeps every sign a
             for (int k = 0; k <= 61; ++k)
                 for (int j = 0; j <= 61; ++j)
                     for (int i = 0; i <= 61; ++i) {
-                        const float a = dense.value(i, j, k), b = far.value(i, j, k);
-                        REQUIRE(std::isfinite(b));
-                        REQUIRE((a > 0) == (b > 0));
-                        if (a != b) {
-                            ++differ;
-                            REQUIRE(std::abs(b) > half_diagonal);
-                        }
+                        require_far_value(dense.value(i, j, k), far.value(i, j, k), half_diagonal, differ);
                     }
             CHECK(differ > 0);
             require_same_mesh(pcp::marching_cubes(far), reference);
@@ -207,13 +214,7 @@ TEST_CASE("sdf_grid: a sparse band with far cells interpolated keeps every sign 
             const float a = reference.values[n], b = far.values[n];
             // (a truncated block's samples past the grid's end are NaN in both)
             REQUIRE(std::isnan(a) == std::isnan(b));
-            if (std::isnan(a)) continue;
-            REQUIRE(std::isfinite(b));
-            REQUIRE((a > 0) == (b > 0));
-            if (a != b) {
-                ++differ;
-                REQUIRE(std::abs(b) > half_diagonal);
-            }
+            if (!std::isnan(a)) require_far_value(a, b, half_diagonal, differ);
         }
         CHECK(differ > 0);
         require_same_mesh(pcp::marching_cubes(far), pcp::marching_cubes(reference));
