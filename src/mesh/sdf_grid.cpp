@@ -681,10 +681,14 @@ SdfGrid evaluate_impl(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGrid
 
     G.values.assign(G.keys.size() * std::size_t(G.L.S3), std::numeric_limits<float>::quiet_NaN());
     G.rebuild_lookup();
-    if (options.far_factor > 0)
-        GridRefinement(sdf, spec, G, 0, options, grid.stats, start).run();
-    else
-        evaluate_blocks(sdf, spec, G, 0, options, grid.stats, start);
+    // Blocks [first, K): refined where far cells may be interpolated, else evaluated whole.
+    const auto evaluate_from = [&](std::size_t first) {
+        if (options.far_factor > 0)
+            GridRefinement(sdf, spec, G, first, options, grid.stats, start).run();
+        else
+            evaluate_blocks(sdf, spec, G, first, options, grid.stats, start);
+    };
+    evaluate_from(0);
     canonicalize(G);
 
     while (options.grow) {
@@ -694,10 +698,7 @@ SdfGrid evaluate_impl(const SdfBatchFn& sdf, const GridSpec& spec, const SdfGrid
         G.keys.insert(G.keys.end(), added.begin(), added.end());
         G.values.resize(G.keys.size() * std::size_t(G.L.S3), std::numeric_limits<float>::quiet_NaN());
         G.rebuild_lookup();
-        if (options.far_factor > 0)
-            GridRefinement(sdf, spec, G, old, options, grid.stats, start).run();
-        else
-            evaluate_blocks(sdf, spec, G, old, options, grid.stats, start);
+        evaluate_from(old);
         canonicalize(G);
         grid.stats.grown_blocks += std::int64_t(added.size());
         ++grid.stats.growth_rounds;
