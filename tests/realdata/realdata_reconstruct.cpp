@@ -152,7 +152,10 @@ TEST_CASE("realdata: every component of the bunny's mesh has input points near i
 // bore up to 0.75 of the shape's extent away (needles; docs/BENCHMARKS.md, "Needles in the fairing
 // at 256 cells"). Every vertex now lies within 0.064 of the extent of an input point (measured on
 // a 2-core Xeon; 0.067 with the fairing off, 0.084 at 128 cells); the bound leaves room for other
-// machines' rounding.
+// machines' rounding. Whether the needles appear depends on the fitted field: with 2400 steps on a
+// 2-core Emerald Rapids this test measured 0.095, and 0.094 with the old clip and no guard put back,
+// so there it guards the 256-cell pipeline as a whole; the guard's own deterministic check is the
+// unit test `fairing: a patch whose solution leaves its box is left as it was`.
 TEST_CASE("realdata: abc_00016513 at 256 cells has no vertex far from its input", "[realdata][reconstruct]") {
     pcp::test::RestoreGemmSettings restore;
     pcp::nn::set_gemm_precision(pcp::nn::Precision::Fp32);
