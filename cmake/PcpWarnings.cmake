@@ -39,7 +39,8 @@ endfunction()
 # apps and the tests -- thin code around library calls -- are built at -O0: an -O1 build with
 # ASan + UBSan compiles three times slower than -O3, and most of the sanitizer run's time was
 # compiling these. Their compute runs in the library, still at -O1 (except the gradient checks'
-# reference forward, tests/nn/test_nn_gradients.cpp, which probes fewer parameters there).
+# reference forward, tests/nn/test_nn_gradients.cpp, and the mesh tests' analytic distances: those
+# files are built at -O1 there, tests/CMakeLists.txt).
 function(pcp_sanitizer_light target)
   if(PCP_SANITIZE)
     target_compile_options(${target} PRIVATE -O0)
