@@ -35,24 +35,16 @@ function(pcp_set_warnings target)
   endif()
 endfunction()
 
-# Under PCP_SANITIZE the library is built as the build type says (scripts/test.sh: -O1), while the
-# apps and the tests -- thin code around library calls -- are built at -O0: an -O1 build with
-# ASan + UBSan compiles three times slower than -O3, and most of the sanitizer run's time was
-# compiling these. Their compute runs in the library, still at -O1 (except the gradient checks'
-# reference forward, tests/nn/test_nn_gradients.cpp, and the mesh tests' analytic distances: those
-# files are built at -O1 there, tests/CMakeLists.txt).
-function(pcp_sanitizer_light target)
-  if(PCP_SANITIZE)
-    target_compile_options(${target} PRIVATE -O0)
-  endif()
-endfunction()
-
 # Code that parses options and calls the library, or checks its results (the apps' own files and
-# the tests): -O1 where the build type optimises, -O0 under the sanitizers (pcp_sanitizer_light);
-# the library keeps the build type's flags. The README's test command has a time budget.
+# the tests): -O1 where the build type optimises; the library keeps the build type's flags. Under
+# PCP_SANITIZE (the library at -O1, scripts/test.sh) this code is built at -O0: an -O1 build with
+# ASan + UBSan compiles three times slower than -O3, and most of the sanitizer run's time was
+# compiling these. Their compute runs in the library (except the gradient checks' reference
+# forward, tests/nn/test_nn_gradients.cpp, and the mesh tests' analytic distances: those files are
+# built at -O1 there, tests/CMakeLists.txt). The README's test command has a time budget.
 function(pcp_light_code_opt target)
   if(PCP_SANITIZE)
-    pcp_sanitizer_light(${target})
+    target_compile_options(${target} PRIVATE -O0)
   elseif(CMAKE_BUILD_TYPE MATCHES "^(Release|RelWithDebInfo|MinSizeRel)$")
     target_compile_options(${target} PRIVATE -O1)
   endif()

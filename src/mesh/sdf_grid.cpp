@@ -209,7 +209,7 @@ void canonicalize(Builder& G) {
 /// Evaluates the samples that blocks [first, K) of G own (every sample of the block except those
 /// a preferred stored neighbour owns; canonicalize copies those). Blocks are grouped into batches
 /// of about options.batch_size points, batches run in parallel, and the progress callback is
-/// called between chunks of batches on the calling thread. G.lookup must already list the blocks.
+/// called between chunks of batches on the calling thread. G.rebuild_lookup() must have run.
 void evaluate_blocks(const SdfBatchFn& sdf, const GridSpec& spec, Builder& G, std::size_t first,
                      const SdfGridOptions& options, SdfGridStats& stats, std::chrono::steady_clock::time_point start) {
     const Layout& L = G.L;
