@@ -472,6 +472,7 @@ Mesh trim_unsupported_faces(const Mesh& unit_mesh, const KdTree& cloud, double r
 Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOptions& options, FairStats* stats) {
     PCP_CHECK(options.support_k > 0 && std::isfinite(options.support_k), "fairing: support_k must be > 0, got " << options.support_k);
     PCP_CHECK(options.guard >= 0 && std::isfinite(options.guard), "fairing: guard must be >= 0, got " << options.guard);
+    PCP_CHECK(options.support_count >= 1, "fairing: support_count must be >= 1, got " << options.support_count);
     const Eigen::Index V = unit_mesh.vertices.rows();
     PCP_CHECK(unit_mesh.faces.rows() == 0 || (unit_mesh.faces.minCoeff() >= 0 && unit_mesh.faces.maxCoeff() < V),
               "fairing: a face index is out of range");
@@ -484,13 +485,13 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
     }
     const OneRing ring(mesh);
     const auto degree = [&](std::size_t v) { return static_cast<double>(ring.start[v + 1] - ring.start[v]); };
-    // Free: no input point within the support radius (and on some face).
+    // Free: fewer than support_count input points within the support radius (and on some face).
     const double radius = options.support_k * sampling_scale(cloud);
-    Eigen::VectorXf nearest;
-    cloud.nearest(mesh.vertices.cast<float>(), &nearest);
+    const int count = static_cast<int>(std::min<Eigen::Index>(options.support_count, cloud.size()));
+    const Eigen::VectorXf kth = cloud.kth_distance(mesh.vertices.cast<float>(), count);
     std::vector<char> loose(static_cast<std::size_t>(V), 0);
     for (Eigen::Index v = 0; v < V; ++v)
-        loose[static_cast<std::size_t>(v)] = static_cast<double>(nearest(v)) > radius && degree(static_cast<std::size_t>(v)) > 0;
+        loose[static_cast<std::size_t>(v)] = static_cast<double>(kth(v)) > radius && degree(static_cast<std::size_t>(v)) > 0;
     // Patches of free vertices joined along edges; those that touch no supported vertex stay put.
     std::vector<std::int32_t> parent(static_cast<std::size_t>(V));
     std::iota(parent.begin(), parent.end(), 0);

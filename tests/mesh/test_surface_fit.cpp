@@ -568,9 +568,8 @@ TEST_CASE("fairing: a crumpled cap with no points under it comes out smooth and 
     CHECK(st.patches >= 1);  // the cap, and maybe a vertex or two in the random sampling's widest gaps
     CHECK(st.unanchored == 0);
     CHECK(st.free_vertices >= static_cast<std::int64_t>(c.cap.size()));
-    // Supported vertices (an input point within the radius) do not move at all.
-    Eigen::VectorXf d;
-    tree.nearest(c.mesh.vertices.cast<float>(), &d);
+    // Supported vertices (support_count input points within the radius) do not move at all.
+    const Eigen::VectorXf d = tree.kth_distance(c.mesh.vertices.cast<float>(), pcp::FairOptions{}.support_count);
     const double radius = pcp::FairOptions{}.support_k * pcp::sampling_scale(tree);
     std::int64_t moved_supported = 0;
     for (Eigen::Index v = 0; v < d.size(); ++v)
@@ -578,6 +577,43 @@ TEST_CASE("fairing: a crumpled cap with no points under it comes out smooth and 
     CHECK(moved_supported == 0);
     CHECK(out.faces == c.mesh.faces);
     CHECK(pcp::is_closed_and_oriented(out));
+}
+
+TEST_CASE("fairing: stray points scattered over an unsupported cap do not hold its crumples", "[surface_fit]") {
+    // A noisy scan's strays: single points far apart, lying on the crumpled cap itself. One point
+    // is not data under the surface (FairOptions::support_count): the whole cap is faired.
+    const double R = 0.2937;
+    CrumpledCap c = crumpled_cap(R, 0.2, 0.17, 0.02);
+    REQUIRE(c.cap.size() > 500);
+    std::vector<Eigen::Index> strays;
+    for (std::size_t k = 0; k < c.cap.size(); k += 30) strays.push_back(c.cap[k]);
+    const Eigen::Index n = c.points.rows();
+    c.points.conservativeResize(n + static_cast<Eigen::Index>(strays.size()), 3);
+    for (std::size_t k = 0; k < strays.size(); ++k)
+        c.points.row(n + static_cast<Eigen::Index>(k)) = c.mesh.vertices.row(strays[k]).cast<float>();
+    const pcp::KdTree tree(c.points);
+    // No two strays share a vertex's support radius, so every cap vertex has at most one point near it.
+    const double radius = pcp::FairOptions{}.support_k * pcp::sampling_scale(tree);
+    const Eigen::VectorXf second = tree.kth_distance(c.mesh.vertices.cast<float>(), 2);
+    for (Eigen::Index v : c.cap) REQUIRE(second(v) > radius);
+    pcp::FairStats st;
+    const pcp::Mesh out = pcp::fair_unsupported(c.mesh, tree, {}, &st);
+    std::int64_t held = 0;
+    for (Eigen::Index v : c.cap) held += out.vertices.row(v) == c.mesh.vertices.row(v) ? 1 : 0;
+    INFO(strays.size() << " strays; " << held << " of " << c.cap.size() << " cap vertices did not move; roughness "
+                       << radial_roughness(c.mesh, c.cap) << " -> " << radial_roughness(out, c.cap));
+    CHECK(held == 0);
+    CHECK(radial_roughness(out, c.cap) < radial_roughness(c.mesh, c.cap) / 10);
+    CHECK(mean_radial_error(out, c.cap, R) < mean_radial_error(c.mesh, c.cap, R) / 1.5);
+    // Counting one point as support (the rule before), the strays hold the vertices near them.
+    pcp::FairOptions one;
+    one.support_count = 1;
+    const pcp::Mesh pinned = pcp::fair_unsupported(c.mesh, tree, one);
+    std::int64_t held_one = 0;
+    for (Eigen::Index v : c.cap) held_one += pinned.vertices.row(v) == c.mesh.vertices.row(v) ? 1 : 0;
+    CHECK(held_one >= static_cast<std::int64_t>(strays.size()));
+    one.support_count = 0;
+    CHECK_THROWS_AS(pcp::fair_unsupported(c.mesh, tree, one), pcp::Error);
 }
 
 TEST_CASE("fairing: a patch whose solution leaves its box is left as it was", "[surface_fit]") {

@@ -147,8 +147,8 @@ Mesh recentre_on_points(const Mesh& unit_mesh, const KdTree& cloud, const Recent
 /// input point lies under the surface, its shape is the fitted field's guess: on the shared cases
 /// crumpled sheets and ragged rims at the scans' borders (abc_00010071's barely scanned bore end,
 /// the gargoyle's edges, docs/BENCHMARKS.md "Fairing where there is no data"). Every vertex with
-/// no input point within support_k x the sampling scale (the surface fit's support radius) is
-/// placed instead as the smoothest surface that joins the supported rest: the solution of
+/// fewer than support_count input points within support_k x the sampling scale (the surface fit's
+/// support radius) is placed instead as the smoothest surface that joins the supported rest: the solution of
 /// L A^-1 L x = 0 on those vertices with the supported ones fixed, L the cotangent Laplacian and A
 /// the vertex areas (the thin-plate energy), so that the patch continues its border's position and
 /// slope. Measured against it (docs/BENCHMARKS.md): the membrane L x = 0 flattens the patches
@@ -159,7 +159,13 @@ Mesh recentre_on_points(const Mesh& unit_mesh, const KdTree& cloud, const Recent
 /// faces stay). Cost: a sparse Cholesky factorisation over the free vertices (0.1 s for 10,000).
 struct FairOptions {
     bool enabled = true;     ///< pcp::reconstruct runs it on every mesh but the scene mode's (which trims those faces)
-    double support_k = 0.8;  ///< a vertex is supported with an input point within this x the sampling scale (> 0)
+    double support_k = 0.8;  ///< a vertex is supported with support_count input points within this x the sampling scale (> 0)
+    /// Input points a supported vertex needs within that radius (>= 1; an even sampling puts about
+    /// 6 there). One stray point of a noisy scan's spread is not data under the surface: with 1,
+    /// the strays scattered inside abc_00010071's barely scanned bore held the field's guess of its
+    /// wall in place, a bulge into the bore on seed 2 (docs/BENCHMARKS.md, "Two points under a
+    /// supported vertex").
+    int support_count = 2;
     /// A patch is left as it was if a vertex of its solution leaves the box of the patch's vertices
     /// and their one-rings grown by this x the box's diagonal (>= 0; an ill-conditioned solve, never
     /// seen at 128 cells on the shared cases).
