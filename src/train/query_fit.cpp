@@ -26,7 +26,9 @@ namespace pcp {
 using MatF = nn::Mat<float>;
 
 namespace {
-constexpr int kEvalBatch = 4096;
+// Rows per network evaluation in sdf(): 512, the grid's batch (SdfGridOptions::batch_size), at which
+// the activations stay in the core's cache (4096 was 25-30 % slower).
+constexpr int kEvalBatch = 512;
 
 struct AblationName {
     QueryAblation mode;
