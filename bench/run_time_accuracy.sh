@@ -9,26 +9,26 @@
 #
 # Usage: bench/run_time_accuracy.sh OUT [CASE...]  (default cases: abc_00010074 bunny gargoyle)
 # Environment: BIN (default <repo>/build/bin), MANIFEST (default <repo>/../shared/data/MANIFEST.tsv),
-# VARIANTS (newline-separated "NAME:ARGS"; default: fast; default at 3000 and its 6000 steps of 500
-# queries, at 12000 steps of 250, and with the stop rule; the earlier default, width 256 at
-# 3000 x 2000).
+# VARIANTS (newline-separated "NAME:ARGS"; default, all in fp32: fast; default with its cosine
+# schedule over 800, 1200, 1800, 2400 (the preset's) and 3600 steps; default with the stop rule).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 repo=$(cd "$here/.." && pwd)
 # shellcheck source=bench/lib_bench.sh
 source "$here/lib_bench.sh"
 bench_kept_networks_setup
-[ $# -ge 1 ] || { sed -n 2,16p "$0"; exit 2; }
+[ $# -ge 1 ] || { sed -n 2,13p "$0"; exit 2; }
 out=$1
 shift
 cases=("$@")
 [ ${#cases[@]} -gt 0 ] || cases=(abc_00010074 bunny gargoyle)
-default_variants="fast:--preset fast
-default-3000:--preset default --steps 3000 --stop-rule off
-default:--preset default --stop-rule off
-default-12000x250:--preset default --steps 12000 --batch 250 --stop-rule off
-default-stop:--preset default --stop-rule on
-earlier-default:--preset default --width 256 --steps 3000 --batch 2000 --stop-rule off"
+default_variants="fast:--preset fast --precision fp32
+default-800:--preset default --steps 800 --precision fp32
+default-1200:--preset default --steps 1200 --precision fp32
+default-1800:--preset default --steps 1800 --precision fp32
+default:--preset default --precision fp32
+default-3600:--preset default --steps 3600 --precision fp32
+default-stop:--preset default --stop-rule on --precision fp32"
 variants=${VARIANTS:-$default_variants}
 mkdir -p "$out"
 wall() { awk '/^WALL /{print $2}' "$1"; }
