@@ -16,6 +16,7 @@
 #include "pcp/mesh/surface_fit.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/train/builtin_prior.hpp"
+#include "mesh/sample_memo.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -294,10 +295,15 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // Regions whose sign the data does not support are flipped (include/pcp/mesh/sign_repair.hpp);
     // the coarse grid is never finer than the fine one.
     so.resolution = std::min(so.resolution, options.resolution);
-    const SignRepair repair(oriented, spec.box, cloud.tree(), so, &labels);
+    // The coarse grid's values are kept for the fine grid's samples at the same points.
+    GridSpec coarse_spec = spec;
+    coarse_spec.resolution = so.resolution;
+    detail::SampleMemo memo(coarse_spec);
+    const SignRepair repair(so.enabled ? memo.recording(oriented) : oriented, spec.box, cloud.tree(), so, &labels);
     r.sign_repair = repair.stats();
+    const SdfBatchFn oriented_fine = so.enabled ? memo.reusing(oriented) : oriented;
     const SdfBatchFn field = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
-        oriented(q, v);
+        oriented_fine(q, v);
         repair.apply(q, v);
     };
     SdfGridOptions go = options.grid;
@@ -341,7 +347,7 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // The dual: bridges of solid as thin, cut where that removes a handle and leaves the solid whole.
     r.bridge_cut = cut_bridges(grid, options.tunnel_fill);
     r.winding_corrected = winding.corrected();
-    r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations;
+    r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations - memo.reused();
     r.seconds_grid = seconds_since(t0);
 
     t0 = std::chrono::steady_clock::now();
