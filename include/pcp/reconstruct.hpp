@@ -154,6 +154,7 @@ struct ReconstructReport {
     std::int64_t fit_steps = 0;
     int denoise_passes = 0;          ///< passes applied to the input (DenoiseOptions; resolved when automatic)
     std::int64_t sdf_evaluations = 0;  ///< points the networks evaluated for the fine grid and the sign repair's coarse grid (the fine samples at the coarse ones reuse their values)
+    std::int64_t sdf_reused = 0;       ///< fine-grid samples that took the sign repair's coarse value at the same point instead
     SignRepairStats sign_repair;
     bool sign_flipped = false;       ///< the fitted SDF was negated so that the outside is positive
     bool closed = false;             ///< every edge of the mesh is shared by exactly two faces

@@ -347,7 +347,8 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // The dual: bridges of solid as thin, cut where that removes a handle and leaves the solid whole.
     r.bridge_cut = cut_bridges(grid, options.tunnel_fill);
     r.winding_corrected = winding.corrected();
-    r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations - memo.reused();
+    r.sdf_reused = memo.reused();
+    r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations - r.sdf_reused;
     r.seconds_grid = seconds_since(t0);
 
     t0 = std::chrono::steady_clock::now();
