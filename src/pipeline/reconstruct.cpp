@@ -295,13 +295,17 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // Regions whose sign the data does not support are flipped (include/pcp/mesh/sign_repair.hpp);
     // the coarse grid is never finer than the fine one.
     so.resolution = std::min(so.resolution, options.resolution);
-    // The coarse grid's values are kept for the fine grid's samples at the same points.
-    GridSpec coarse_spec = spec;
-    coarse_spec.resolution = so.resolution;
-    detail::SampleMemo memo(coarse_spec);
-    const SignRepair repair(so.enabled ? memo.recording(oriented) : oriented, spec.box, cloud.tree(), so, &labels);
+    // The coarse grid's values are kept for the fine grid's samples at the same points (only for a
+    // resolution the repair accepts: it reports any other itself).
+    std::optional<detail::SampleMemo> memo;
+    if (so.enabled && so.resolution >= 2 && so.resolution <= 256) {
+        GridSpec coarse_spec = spec;
+        coarse_spec.resolution = so.resolution;
+        memo.emplace(coarse_spec);
+    }
+    const SignRepair repair(memo ? memo->recording(oriented) : oriented, spec.box, cloud.tree(), so, &labels);
     r.sign_repair = repair.stats();
-    const SdfBatchFn oriented_fine = so.enabled ? memo.reusing(oriented) : oriented;
+    const SdfBatchFn oriented_fine = memo ? memo->reusing(oriented) : oriented;
     const SdfBatchFn field = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
         oriented_fine(q, v);
         repair.apply(q, v);
@@ -347,7 +351,7 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // The dual: bridges of solid as thin, cut where that removes a handle and leaves the solid whole.
     r.bridge_cut = cut_bridges(grid, options.tunnel_fill);
     r.winding_corrected = winding.corrected();
-    r.sdf_reused = memo.reused();
+    r.sdf_reused = memo ? memo->reused() : 0;
     r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations - r.sdf_reused;
     r.seconds_grid = seconds_since(t0);
 
