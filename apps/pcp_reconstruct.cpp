@@ -490,8 +490,10 @@ int main(int argc, char** argv) {
             o.fp32_grid = v == "fp32";
         }
         if (args.count("sign-repair-resolution")) o.sign_repair.resolution = args["sign-repair-resolution"].as<int>();
-        if (o.sign_repair.resolution < 2 || o.sign_repair.resolution > 256)
-            throw pcp::cli::UsageError("--sign-repair-resolution must be in [2, 256]");
+        if (o.sign_repair.resolution < pcp::SignRepairOptions::kMinResolution ||
+            o.sign_repair.resolution > pcp::SignRepairOptions::kMaxResolution)
+            throw pcp::cli::UsageError("--sign-repair-resolution must be in [" + std::to_string(pcp::SignRepairOptions::kMinResolution) +
+                                       ", " + std::to_string(pcp::SignRepairOptions::kMaxResolution) + "]");
         if (const auto on = on_off(args, "sign-guide")) o.fit.sign_guide.enabled = *on;
         if (args.count("label-votes")) o.sign_repair.min_label_votes = args["label-votes"].as<int>();
         if (o.sign_repair.min_label_votes < 0) throw pcp::cli::UsageError("--label-votes must be >= 0");

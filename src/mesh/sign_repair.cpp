@@ -38,8 +38,9 @@ struct Group {
 SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& tree, const SignRepairOptions& options,
                        const VisibilityLabels* labels) {
     const PointsF& points = tree.points();
-    PCP_CHECK(options.resolution >= 2 && options.resolution <= 256,
-              "sign repair: resolution must be in [2, 256] (got " << options.resolution << ")");
+    PCP_CHECK(options.resolution >= SignRepairOptions::kMinResolution && options.resolution <= SignRepairOptions::kMaxResolution,
+              "sign repair: resolution must be in [" << SignRepairOptions::kMinResolution << ", "
+                                                      << SignRepairOptions::kMaxResolution << "] (got " << options.resolution << ")");
     PCP_CHECK(options.near_cells >= 0 && options.near_spacings >= 0 && std::isfinite(options.near_cells) &&
                   std::isfinite(options.near_spacings),
               "sign repair: near_cells and near_spacings must be finite and >= 0");

@@ -298,7 +298,7 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // The coarse grid's values are kept for the fine grid's samples at the same points (only for a
     // resolution the repair accepts: it reports any other itself).
     std::optional<detail::SampleMemo> memo;
-    if (so.enabled && so.resolution >= 2 && so.resolution <= 256) {
+    if (so.enabled && so.resolution >= SignRepairOptions::kMinResolution && so.resolution <= SignRepairOptions::kMaxResolution) {
         GridSpec coarse_spec = spec;
         coarse_spec.resolution = so.resolution;
         memo.emplace(coarse_spec);

@@ -38,6 +38,7 @@
 namespace pcp {
 
 struct SignRepairOptions {
+    static constexpr int kMinResolution = 2, kMaxResolution = 256;  ///< the accepted coarse resolutions
     bool enabled = true;           ///< off: apply() is the identity and no evaluation happens
     int resolution = 64;           ///< coarse grid cells along each axis of the fine grid's box (2..256; memory ~ 30 bytes x (R+1)^3)
     double near_cells = 1.5;       ///< tau = max(near_cells * largest coarse spacing,
