@@ -3,12 +3,14 @@
 
 #include "eval/triangle_distance.hpp"
 #include "pcp/core/error.hpp"
+#include "pcp/core/rng.hpp"
 
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 #include <queue>
 #include <vector>
 
@@ -16,16 +18,17 @@ namespace pcp {
 
 namespace {
 
-/// PCA normals (unit, unoriented) of every tree point from its k nearest points (also returned),
-/// and the spread of those points along the normal (the standard deviation: noise, or curvature).
-PointsF pca_normals(const KdTree& tree, int k, NeighborIndices& idx, Eigen::VectorXf& thickness) {
+/// PCA normals (unit, unoriented) at `queries` (points of the tree, or any) from their k nearest tree
+/// points (also returned), and the spread of those points along the normal (the standard
+/// deviation: noise, or curvature).
+PointsF pca_normals_at(const KdTree& tree, const PointsF& queries, int k, NeighborIndices& idx, Eigen::VectorXf& thickness) {
     const PointsF& pts = tree.points();
     NeighborDistances dist;
-    tree.knn(pts, k, idx, dist);
-    PointsF normals(pts.rows(), 3);
-    thickness.resize(pts.rows());
+    tree.knn(queries, k, idx, dist);
+    PointsF normals(queries.rows(), 3);
+    thickness.resize(queries.rows());
 #pragma omp parallel for schedule(static)
-    for (Eigen::Index i = 0; i < pts.rows(); ++i) {
+    for (Eigen::Index i = 0; i < queries.rows(); ++i) {
         Eigen::Vector3d mean = Eigen::Vector3d::Zero();
         for (int j = 0; j < k; ++j) mean += pts.row(idx(i, j)).transpose().cast<double>();
         mean /= k;
@@ -39,6 +42,48 @@ PointsF pca_normals(const KdTree& tree, int k, NeighborIndices& idx, Eigen::Vect
         thickness(i) = static_cast<float>(std::sqrt(std::max(0.0, eig.eigenvalues()(0)) / k));
     }
     return normals;
+}
+
+PointsF pca_normals(const KdTree& tree, int k, NeighborIndices& idx, Eigen::VectorXf& thickness) {
+    return pca_normals_at(tree, tree.points(), k, idx, thickness);
+}
+
+/// The field's vote on the orientation of each of `pts` (header: 1 for a signed distance growing
+/// along the normal, -1 against it, 0 off the zero set), from its unoriented normal and the spread
+/// of its neighbours along it.
+Eigen::VectorXd field_votes(const SdfBatchFn& field, const PointsF& pts, const PointsF& normals, const Eigen::VectorXf& thickness,
+                            double scale, const FieldNormalsOptions& options) {
+    const Eigen::Index n = pts.rows();
+    constexpr int kProbes = 3;
+    // The first probe step: probe x scale, or beyond the local noise (noise_probe standard
+    // deviations of the points along the normal) where that is more.
+    Eigen::VectorXf step(n);
+    for (Eigen::Index i = 0; i < n; ++i)
+        step(i) = std::max(static_cast<float>(options.probe * scale), static_cast<float>(options.noise_probe) * thickness(i));
+    PointsF probes((2 * kProbes + 1) * n, 3);
+    probes.bottomRows(n) = pts;
+    for (Eigen::Index i = 0; i < n; ++i)
+        for (int s = 0; s < kProbes; ++s) {
+            const float h = step(i) * static_cast<float>(1 << s);
+            probes.row((2 * s) * n + i) = pts.row(i) + h * normals.row(i);
+            probes.row((2 * s + 1) * n + i) = pts.row(i) - h * normals.row(i);
+        }
+    Eigen::VectorXf values(probes.rows());
+    field(probes, values);
+    PCP_CHECK(values.allFinite(), "oriented normals: the field is not finite at a probe near the input points");
+    Eigen::VectorXd votes(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+        double vote = 0, clean = 0;
+        for (int s = 0; s < kProbes; ++s) {
+            const double h = step(i) * double(1 << s), w = 1.0 / double(1 << s);
+            vote += w * (double(values((2 * s) * n + i)) - double(values((2 * s + 1) * n + i))) / h;
+            clean += w * 2.0;  // a signed distance grows by 2h over the probe pair
+        }
+        // A point the field's zero set does not pass near is no witness of its orientation.
+        const bool on_zero_set = std::abs(values(2 * kProbes * n + i)) <= std::max(options.zero_set * scale, double(step(i)));
+        votes(i) = on_zero_set ? vote / clean : 0.0;
+    }
+    return votes;
 }
 
 /// Orientation signs (+1 keep, -1 negate) of the unoriented `normals` from the field's votes: a point
@@ -160,38 +205,9 @@ FieldNormals orient_normals_by_field(const SdfBatchFn& field, const KdTree& clou
     FieldNormals out;
     const PointsF& pts = cloud.points();
     const Eigen::Index n = pts.rows();
-    const double scale = sampling_scale(cloud);
     out.stats.points = n;
     out.normals = pca_normals(cloud, options.normal_k, out.neighbours, out.thickness);
-    constexpr int kProbes = 3;
-    // The first probe step: probe x scale, or beyond the local noise (noise_probe standard
-    // deviations of the points along the normal) where that is more.
-    Eigen::VectorXf step(n);
-    for (Eigen::Index i = 0; i < n; ++i)
-        step(i) = std::max(static_cast<float>(options.probe * scale), static_cast<float>(options.noise_probe) * out.thickness(i));
-    PointsF probes((2 * kProbes + 1) * n, 3);
-    probes.bottomRows(n) = pts;
-    for (Eigen::Index i = 0; i < n; ++i)
-        for (int s = 0; s < kProbes; ++s) {
-            const float h = step(i) * static_cast<float>(1 << s);
-            probes.row((2 * s) * n + i) = pts.row(i) + h * out.normals.row(i);
-            probes.row((2 * s + 1) * n + i) = pts.row(i) - h * out.normals.row(i);
-        }
-    Eigen::VectorXf values(probes.rows());
-    field(probes, values);
-    PCP_CHECK(values.allFinite(), "oriented normals: the field is not finite at a probe near the input points");
-    out.votes.resize(n);  // 1 for a signed distance growing along the normal, -1 against it
-    for (Eigen::Index i = 0; i < n; ++i) {
-        double vote = 0, clean = 0;
-        for (int s = 0; s < kProbes; ++s) {
-            const double h = step(i) * double(1 << s), w = 1.0 / double(1 << s);
-            vote += w * (double(values((2 * s) * n + i)) - double(values((2 * s + 1) * n + i))) / h;
-            clean += w * 2.0;  // a signed distance grows by 2h over the probe pair
-        }
-        // A point the field's zero set does not pass near is no witness of its orientation.
-        const bool on_zero_set = std::abs(values(2 * kProbes * n + i)) <= std::max(options.zero_set * scale, double(step(i)));
-        out.votes(i) = on_zero_set ? vote / clean : 0.0;
-    }
+    out.votes = field_votes(field, pts, out.normals, out.thickness, sampling_scale(cloud), options);
     for (Eigen::Index i = 0; i < n; ++i) out.stats.confident += std::abs(out.votes(i)) >= options.confident_vote;
     std::vector<std::int8_t> sign;
     out.stats.weak_orientation = orient_by_votes(out.normals, out.neighbours, out.votes, options.confident_vote, sign);
@@ -201,6 +217,34 @@ FieldNormals orient_normals_by_field(const SdfBatchFn& field, const KdTree& clou
     }
     out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out;
+}
+
+double confident_vote_fraction(const SdfBatchFn& field, const KdTree& cloud, const FieldNormalsOptions& options,
+                               Eigen::Index max_points) {
+    check_field_normals_options(options, "oriented normals");
+    PCP_CHECK(max_points >= 1, "oriented normals: max_points must be >= 1");
+    PCP_CHECK(cloud.size() > options.normal_k,
+              "oriented normals: the cloud has " << cloud.size() << " points; normal_k = " << options.normal_k << " needs more");
+    const PointsF& all = cloud.points();
+    const Eigen::Index n = all.rows(), m = std::min(n, max_points);
+    // A uniform sample without replacement (a fixed seed: the same points every run). Not a stride
+    // over the tree's order: a scan's points come in rows, and a stride can alias with them (on
+    // abc_00016513 a stride of 42 estimated 0.40 where the count is 0.32).
+    std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
+    std::iota(order.begin(), order.end(), Eigen::Index(0));
+    Rng rng(0x9E3779B97F4A7C15ull, 7);
+    for (Eigen::Index j = 0; j < m; ++j)
+        std::swap(order[static_cast<std::size_t>(j)], order[static_cast<std::size_t>(j + static_cast<Eigen::Index>(rng.below(std::uint64_t(n - j))))]);
+    std::sort(order.begin(), order.begin() + m);
+    PointsF pts(m, 3);
+    for (Eigen::Index j = 0; j < m; ++j) pts.row(j) = all.row(order[static_cast<std::size_t>(j)]);
+    NeighborIndices idx;
+    Eigen::VectorXf thickness;
+    const PointsF normals = pca_normals_at(cloud, pts, options.normal_k, idx, thickness);
+    const Eigen::VectorXd votes = field_votes(field, pts, normals, thickness, sampling_scale(cloud), options);
+    Eigen::Index confident = 0;
+    for (Eigen::Index j = 0; j < m; ++j) confident += std::abs(votes(j)) >= options.confident_vote;
+    return double(confident) / double(m);
 }
 
 }  // namespace pcp

@@ -119,3 +119,24 @@ TEST_CASE("eval: normal orientation against a GT mesh counts the correct side an
     radial.row(3) << std::nan(""), 0, 0;
     CHECK_THROWS_WITH(pcp::normal_orientation(cloud.points, radial, sphere), Catch::Contains("finite"));
 }
+
+TEST_CASE("field normals: the confident fraction estimated on a sample matches the whole count", "[mesh][normals]") {
+    const pcp::PointCloud cloud = pcp::sample_sphere(6000, kRadius, Eigen::Vector3d::Zero(), 11);
+    const pcp::KdTree tree(cloud.points.cast<float>());
+    const ScalarSdf sphere = sphere_sdf(Eigen::Vector3d::Zero(), kRadius);
+    // Signed above z = 0.2 R, unsigned below (|F|: the probes on either side agree, the vote is 0):
+    // 40 % of an even sampling of the sphere votes confidently.
+    const ScalarSdf half = [&](const Eigen::Vector3d& p) { return p.z() >= 0.2 * kRadius ? sphere(p) : std::abs(sphere(p)); };
+    const pcp::FieldNormals all = pcp::orient_normals_by_field(batch(half), tree);
+    const double exact = static_cast<double>(all.stats.confident) / 6000.0;
+    CHECK(exact == Approx(0.4).margin(0.03));
+    // Every point: the same votes, the same count.
+    CHECK(pcp::confident_vote_fraction(batch(half), tree, {}, 6000) == exact);
+    CHECK(pcp::confident_vote_fraction(batch(half), tree, {}, 100000) == exact);
+    // A uniform sample of 1000: within a few standard errors (0.016) of the count.
+    CHECK(pcp::confident_vote_fraction(batch(half), tree, {}, 1000) == Approx(exact).margin(0.05));
+    CHECK(pcp::confident_vote_fraction(batch(sphere), tree, {}, 500) == 1.0);
+    const ScalarSdf unsigned_field = [&](const Eigen::Vector3d& p) { return std::abs(sphere(p)); };
+    CHECK(pcp::confident_vote_fraction(batch(unsigned_field), tree, {}, 500) == 0.0);
+    CHECK_THROWS_AS(pcp::confident_vote_fraction(batch(sphere), tree, {}, 0), pcp::Error);
+}

@@ -62,6 +62,14 @@ struct FieldNormals {
 /// non-finite field value near the points.
 FieldNormals orient_normals_by_field(const SdfBatchFn& field, const KdTree& cloud, const FieldNormalsOptions& options = {});
 
+/// The fraction of the tree's points whose own vote is confident (|vote| >= confident_vote, as
+/// counted in FieldNormalsStats::confident), estimated on at most `max_points` of them, drawn
+/// uniformly without replacement (a fixed seed): each vote is the one orient_normals_by_field gives that point
+/// (up to the rounding of the field's batches), at a fraction of its cost. Throws pcp::Error as
+/// orient_normals_by_field does, and for max_points < 1.
+double confident_vote_fraction(const SdfBatchFn& field, const KdTree& cloud, const FieldNormalsOptions& options,
+                               Eigen::Index max_points);
+
 /// The outward normals of a closed, outward-oriented mesh (counter-clockwise faces) at the mesh
 /// points nearest to `points` (N x 3, the mesh's frame): the area-weighted vertex normals
 /// interpolated barycentrically on the nearest triangle, normalised. Throws pcp::Error for a mesh
