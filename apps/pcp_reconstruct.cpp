@@ -656,8 +656,11 @@ int main(int argc, char** argv) {
           << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "")
           << (report.winding_sign.points == 0 ? std::string(", winding sign off")
               : report.winding_sign.skipped
-                  ? ", winding sign skipped (the field orients only " + std::to_string(report.winding_sign.confident) + " of " +
-                        std::to_string(report.winding_sign.points) + " points)"
+                  ? ", winding sign skipped (the field orients only " +
+                        std::string(report.winding_sign.sampled > 0 ? "about " : "") + std::to_string(report.winding_sign.confident) +
+                        " of " + std::to_string(report.winding_sign.points) + " points" +
+                        (report.winding_sign.sampled > 0 ? ", from a sample of " + std::to_string(report.winding_sign.sampled) : std::string()) +
+                        "; " + fmt(report.winding_sign.seconds) + " s)"
                   : ", winding sign changed " + std::to_string(report.winding_corrected) + " field values (" +
                         std::to_string(report.winding_sign.confident) + " of " + std::to_string(report.winding_sign.points) +
                         " points oriented by the field, the others by their neighbours; " + fmt(report.winding_sign.seconds) + " s)")

@@ -119,6 +119,8 @@ WindingSign::WindingSign(const SdfBatchFn& field, const KdTree& cloud, const Win
     PCP_CHECK(options.near_k >= 0 && std::isfinite(options.near_k), "winding sign: near_k must be >= 0");
     PCP_CHECK(options.margin >= 0 && options.margin < 0.5, "winding sign: margin must be in [0, 0.5)");
     PCP_CHECK(options.opening >= 1 && std::isfinite(options.opening), "winding sign: opening must be >= 1");
+    PCP_CHECK(options.precheck_points >= 0, "winding sign: precheck_points must be >= 0");
+    PCP_CHECK(options.precheck_slack >= 0 && options.precheck_slack <= 1, "winding sign: precheck_slack must be in [0, 1]");
     if (!options.enabled) return;
     const auto t0 = std::chrono::steady_clock::now();
     m.cloud = &cloud;
@@ -127,6 +129,18 @@ WindingSign::WindingSign(const SdfBatchFn& field, const KdTree& cloud, const Win
     const double scale = sampling_scale(cloud);
     m.stats.points = n;
     m.stats.tau = options.near_k * scale;
+
+    // 0. A sample first: a cloud the field clearly cannot orient is skipped at a fraction of the cost.
+    if (options.precheck_points > 0 && n > 2 * Eigen::Index(options.precheck_points)) {
+        const double estimate = confident_vote_fraction(field, cloud, options.normals, options.precheck_points);
+        if (estimate < options.min_confident - options.precheck_slack) {
+            m.stats.confident = std::llround(estimate * double(n));
+            m.stats.sampled = options.precheck_points;
+            m.stats.skipped = true;
+            m.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            return;
+        }
+    }
 
     // 1. PCA normals, oriented by the field's votes (field_normals.hpp).
     FieldNormals oriented = orient_normals_by_field(field, cloud, options.normals);

@@ -20,7 +20,7 @@ namespace {
 
 pcp::PointsF unit_points(const pcp::PointCloud& c) { return c.points.cast<float>(); }
 
-/// The default options, switched on (the pipeline's default is off).
+/// The default options, switched on (WindingSignOptions{} is off; the default and fast presets turn it on).
 pcp::WindingSignOptions on() {
     pcp::WindingSignOptions o;
     o.enabled = true;
@@ -211,4 +211,42 @@ TEST_CASE("winding sign: disabled is the identity, bad options throw", "[winding
         out.setConstant(std::nanf(""));
     };
     CHECK_THROWS_AS(pcp::WindingSign(nan_field, tree, on()), pcp::Error);
+}
+
+TEST_CASE("winding sign: a field that cannot orient the cloud is skipped on a sample, a borderline one counted in full", "[winding_sign]") {
+    constexpr double R = 0.35;
+    const pcp::PointCloud c = pcp::sample_sphere(6000, R, Eigen::Vector3d::Zero(), 5);
+    const pcp::KdTree tree(unit_points(c));
+    const ScalarSdf sphere = sphere_sdf(Eigen::Vector3d::Zero(), R);
+    // Signed above z = z0, unsigned below: the fraction (R - z0) / 2R of the points votes confidently.
+    auto signed_above = [&](double z0) -> ScalarSdf {
+        return [=](const Eigen::Vector3d& p) { return p.z() >= z0 ? sphere(p) : std::abs(sphere(p)); };
+    };
+    pcp::WindingSignOptions o = on();
+    REQUIRE(o.precheck_points == 2048);
+    // 20 %: the sample decides (well below 0.5 - 0.05).
+    const pcp::WindingSign low(batch(signed_above(0.6 * R)), tree, o);
+    CHECK(low.stats().skipped);
+    CHECK(low.stats().sampled == 2048);
+    CHECK(static_cast<double>(low.stats().confident) / 6000.0 == Approx(0.2).margin(0.04));
+    // 48 %: the sample cannot tell, every point is counted, and the count skips it.
+    const pcp::WindingSign border(batch(signed_above(0.04 * R)), tree, o);
+    CHECK(border.stats().skipped);
+    CHECK(border.stats().sampled == 0);
+    CHECK(static_cast<double>(border.stats().confident) / 6000.0 == Approx(0.48).margin(0.03));
+    // 60 %: oriented and applied.
+    const pcp::WindingSign high(batch(signed_above(-0.2 * R)), tree, o);
+    CHECK_FALSE(high.stats().skipped);
+    CHECK(high.stats().sampled == 0);
+    // Without the sample the low one is counted in full, with the same decision.
+    o.precheck_points = 0;
+    const pcp::WindingSign full(batch(signed_above(0.6 * R)), tree, o);
+    CHECK(full.stats().skipped);
+    CHECK(full.stats().sampled == 0);
+    CHECK(std::abs(full.stats().confident - low.stats().confident) < 0.04 * 6000);
+    o.precheck_points = -1;
+    CHECK_THROWS_AS(pcp::WindingSign(batch(sphere), tree, o), pcp::Error);
+    o = on();
+    o.precheck_slack = 1.5;
+    CHECK_THROWS_AS(pcp::WindingSign(batch(sphere), tree, o), pcp::Error);
 }

@@ -38,9 +38,19 @@
 namespace pcp {
 
 struct WindingSignOptions {
-    bool enabled = false;   ///< off (the default: measured in docs/BENCHMARKS.md): apply() is the identity, nothing is computed
+    /// Off here (apply() is the identity, nothing is computed); the default and fast presets turn
+    /// it on, the scene preset off (docs/BENCHMARKS.md, "The winding-number sign on").
+    bool enabled = false;
     FieldNormalsOptions normals;  ///< the PCA normals and the field's vote on their orientation (field_normals.hpp)
     double min_confident = 0.5;   ///< fewer confident points than this fraction: the field cannot orient the cloud, nothing is corrected
+    /// The skip decided first on a sample: on a cloud of more than 2 x precheck_points points the
+    /// confident fraction is estimated on precheck_points of them (confident_vote_fraction), and
+    /// below min_confident - precheck_slack the cloud is skipped without orienting every point
+    /// (about 7 field values per point). Its standard error is at most 0.5 / sqrt(precheck_points)
+    /// (0.011 at 2048), so a slack of 0.05 skips a cloud the whole count would not skip about never.
+    /// 0: every point oriented first, as before.
+    int precheck_points = 2048;
+    double precheck_slack = 0.05;
     double near_k = 0.4;    ///< tau in units of the sampling scale (0.4: about 1.5 spacings of an even sampling)
     double margin = 0.2;    ///< the winding number decides where |w - 0.5| > margin (0..0.5)
     double opening = 3.0;   ///< Barnes-Hut: a node is one dipole when its distance > opening x its radius (>= 1)
@@ -50,6 +60,7 @@ struct WindingSignStats {
     std::int64_t points = 0;             ///< oriented input points
     std::int64_t confident = 0;          ///< of which with a confident vote of their own
     bool skipped = false;                ///< too few confident votes (min_confident): apply() is the identity
+    std::int64_t sampled = 0;            ///< skipped on a sample of this many points (confident: its estimate over all points); 0: counted on all
     std::int64_t weak_orientation = 0;   ///< of which oriented by their neighbours (their own vote below confident_vote)
     std::int64_t against_own_vote = 0;   ///< of which oriented against the sign of their own vote
     bool inward = false;                 ///< the field oriented the normals inward (negative outside): all were turned
