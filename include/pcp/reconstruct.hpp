@@ -84,7 +84,7 @@ struct ReconstructOptions {
         g.far_levels = 3;
         return g;
     }();
-    WindingSignOptions winding_sign; ///< the sign away from the data by the winding number of the field-oriented points (not in the paper)
+    WindingSignOptions winding_sign; ///< the sign away from the data by the winding number of the field-oriented points (not in the paper; never in the scene mode)
     SignRepairOptions sign_repair;   ///< flip regions whose sign the data does not support (not in the paper)
     CavityFillOptions cavity_fill;   ///< fill enclosed positive pockets (hollow shells of noisy scans) on a dense grid (not in the paper)
     FineRepairOptions fine_repair;   ///< the sign repair's rule on the fine grid, for thin membranes (not in the paper)

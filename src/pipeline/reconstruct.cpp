@@ -285,8 +285,10 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
         *normals = per_input_point(oriented.normals, cloud, all_points, subsampled).cast<double>();
     }
     // Away from the data the sign is the winding number's of the field-oriented input points
-    // (include/pcp/mesh/winding_sign.hpp).
-    const WindingSign winding(fitted, cloud.tree(), options.winding_sign);
+    // (include/pcp/mesh/winding_sign.hpp); not in the scene mode: an open room has no inside.
+    WindingSignOptions winding_options = options.winding_sign;
+    if (options.scene.enabled) winding_options.enabled = false;
+    const WindingSign winding(fitted, cloud.tree(), winding_options);
     r.winding_sign = winding.stats();
     const SdfBatchFn oriented = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
         fitted(q, v);

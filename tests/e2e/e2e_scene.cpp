@@ -25,10 +25,12 @@ TEST_CASE("scene mode: a generated room stays open at the door and the top, face
     o.thin_offset = scene.thin_offset;
     o.resolution = 128;
     REQUIRE(o.scene.enabled);
+    REQUIRE(o.winding_sign.enabled);  // the reduced (fast) preset's: the scene mode must not run it
     pcp::ReconstructReport report;
     const pcp::Mesh mesh = pcp::reconstruct(room.cloud.points, nullptr, o, &report);
     REQUIRE(mesh.faces.rows() > 0);
     CHECK(report.scene_trimmed > 0);
+    CHECK(report.winding_sign.points == 0);  // an open room has no inside for a winding number
 
     const double W = ro.width, D = ro.depth, H = ro.height, t = ro.wall;
     Eigen::Index in_doorway = 0, above = 0, behind = 0, floor_up = 0, floor_down = 0;

@@ -47,8 +47,8 @@ struct WindingSignOptions {
     /// confident fraction is estimated on precheck_points of them (confident_vote_fraction), and
     /// below min_confident - precheck_slack the cloud is skipped without orienting every point
     /// (about 7 field values per point). Its standard error is at most 0.5 / sqrt(precheck_points)
-    /// (0.011 at 2048), so a slack of 0.05 skips a cloud the whole count would not skip about never.
-    /// 0: every point oriented first, as before.
+    /// (0.011 at 2048): a cloud the whole count would correct lies 4.5 of them above the skip, so
+    /// the sample all but never skips it. 0: every point oriented first, as before.
     int precheck_points = 2048;
     double precheck_slack = 0.05;
     double near_k = 0.4;    ///< tau in units of the sampling scale (0.4: about 1.5 spacings of an even sampling)
