@@ -266,17 +266,22 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     const Eigen::Array3f lo = spec.box.min.cast<float>().array(), hi = spec.box.max.cast<float>().array();
     const Eigen::Array3f tol = (spec.spacing() * 1e-3).cast<float>().array();
     const auto outside = static_cast<float>(1e-3 * spec.spacing().minCoeff());
-    const SdfBatchFn fitted = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
+    // F_g - iso, positive on the box's faces; `fitted` also less the thin level near the data (what
+    // the mesh stages see), `level` without it (what the winding sign's orientation votes see: a
+    // point is a witness only where the zero set passes near it, field_normals.hpp).
+    const auto evaluate = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v, bool with_thin) {
         fitter.sdf(index, q, v);
         if (sign < 0) v = -v;
         if (iso != 0.0f) v.array() -= iso;
-        if (thin > 0)
+        if (with_thin && thin > 0)
             for (Eigen::Index i = 0; i < q.rows(); ++i) v(i) -= thin_level(q.row(i).transpose());
         for (Eigen::Index i = 0; i < q.rows(); ++i) {
             const Eigen::Array3f p = q.row(i).transpose().array();
             if (((p - lo).abs() <= tol).any() || ((p - hi).abs() <= tol).any()) v(i) = std::max(v(i), outside);
         }
     };
+    const SdfBatchFn fitted = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) { evaluate(q, v, true); };
+    const SdfBatchFn level = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) { evaluate(q, v, false); };
     // The oriented normals of the input points (include/pcp/mesh/field_normals.hpp): the unit
     // box's uniform scale keeps directions, so they are the input frame's too.
     if (normals && options.normal_source == NormalSource::Field) {
@@ -288,7 +293,7 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // (include/pcp/mesh/winding_sign.hpp); not in the scene mode: an open room has no inside.
     WindingSignOptions winding_options = options.winding_sign;
     if (options.scene.enabled) winding_options.enabled = false;
-    const WindingSign winding(fitted, cloud.tree(), winding_options);
+    const WindingSign winding(level, cloud.tree(), winding_options);
     r.winding_sign = winding.stats();
     const SdfBatchFn oriented = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
         fitted(q, v);
