@@ -44,10 +44,10 @@ TEST_CASE("e2e: the default shape reconstructs closed, outward and close to its 
         REQUIRE(again.thin_offset > 0);
         pcp::ReconstructOptions thicker = again;
         thicker.thin_offset = 4 * again.thin_offset;
-        pcp::ReconstructReport third;
-        CHECK(pcp::reconstruct(cloud.points, nullptr, thicker, &third).faces.rows() > 0);
-        CHECK(third.winding_sign.confident == second.winding_sign.confident);
-        CHECK(third.winding_sign.skipped == second.winding_sign.skipped);
+        pcp::ReconstructReport thick;
+        CHECK(pcp::reconstruct(cloud.points, nullptr, thicker, &thick).faces.rows() > 0);
+        CHECK(thick.winding_sign.confident == second.winding_sign.confident);
+        CHECK(thick.winding_sign.skipped == second.winding_sign.skipped);
         // Oriented normals of the input points, from the same networks: each source points outward
         // (the exact shape's SDF grows along it) on most points. Bounds from this reduced preset's
         // run (mesh 95 %, pca 95 %, field 86 % at h = 0.005; the field's votes are weak on the fin).
