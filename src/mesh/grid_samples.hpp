@@ -6,6 +6,7 @@
 #include "pcp/cloud/kdtree.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -42,6 +43,33 @@ inline std::vector<float> lattice_values(const SdfGrid& grid) {
     for_each_stored_sample(grid, [&](const float& v, std::int64_t g) { out[static_cast<std::size_t>(g)] = v; });
     return out;
 }
+
+/// Trilinear interpolation of the lattice at `p` (unit box); NaN outside the grid box or where a
+/// corner sample is missing.
+struct TrilinearLattice {
+    const GridSpec& spec;
+    const std::vector<float>& v;
+
+    float at(const Eigen::RowVector3d& p) const {
+        const int R = spec.resolution, n1 = R + 1;
+        const Eigen::Vector3d u = ((p.transpose() - spec.box.min).array() / spec.spacing().array()).matrix();
+        if ((u.array() < 0).any() || (u.array() > R).any()) return std::numeric_limits<float>::quiet_NaN();
+        int c[3];
+        double f[3];
+        for (int a = 0; a < 3; ++a) {
+            c[a] = std::min(static_cast<int>(std::floor(u(a))), R - 1);
+            f[a] = u(a) - c[a];
+        }
+        double sum = 0;
+        for (int corner = 0; corner < 8; ++corner) {
+            const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
+            const float s = v[static_cast<std::size_t>((std::int64_t(c[2] + dz) * n1 + (c[1] + dy)) * n1 + (c[0] + dx))];
+            const double w = (dx ? f[0] : 1 - f[0]) * (dy ? f[1] : 1 - f[1]) * (dz ? f[2] : 1 - f[2]);
+            sum += w * static_cast<double>(s);  // a NaN corner makes the sum NaN
+        }
+        return static_cast<float>(sum);
+    }
+};
 
 /// Which lattice points lie within tau of an input point (index (k * n1 + j) * n1 + i, 1 = near):
 /// the same float distance and test as a nearest query per point (d <= tau), computed by stamping

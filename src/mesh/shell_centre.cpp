@@ -12,37 +12,6 @@
 #include <vector>
 
 namespace pcp {
-namespace {
-
-/// Trilinear interpolation of the lattice at `p` (unit box); NaN outside the grid box or where a
-/// corner sample is missing.
-struct Lattice {
-    const GridSpec& spec;
-    const std::vector<float>& v;
-
-    float at(const Eigen::RowVector3d& p) const {
-        const int R = spec.resolution, n1 = R + 1;
-        const Eigen::Vector3d u = ((p.transpose() - spec.box.min).array() / spec.spacing().array()).matrix();
-        if ((u.array() < 0).any() || (u.array() > R).any()) return std::numeric_limits<float>::quiet_NaN();
-        int c[3];
-        double f[3];
-        for (int a = 0; a < 3; ++a) {
-            c[a] = std::min(static_cast<int>(std::floor(u(a))), R - 1);
-            f[a] = u(a) - c[a];
-        }
-        double sum = 0;
-        for (int corner = 0; corner < 8; ++corner) {
-            const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
-            const float s = v[static_cast<std::size_t>((std::int64_t(c[2] + dz) * n1 + (c[1] + dy)) * n1 + (c[0] + dx))];
-            const double w = (dx ? f[0] : 1 - f[0]) * (dy ? f[1] : 1 - f[1]) * (dz ? f[2] : 1 - f[2]);
-            sum += w * static_cast<double>(s);  // a NaN corner makes the sum NaN
-        }
-        return static_cast<float>(sum);
-    }
-};
-
-}  // namespace
-
 Mesh centre_in_shells(const Mesh& mesh, const SdfGrid& before, const SdfGrid& after, const KdTree& cloud, double max_thickness,
                       ShellCentreStats* stats) {
     PCP_CHECK(max_thickness > 0 && std::isfinite(max_thickness), "shell centring: max_thickness must be > 0, got " << max_thickness);
@@ -52,7 +21,7 @@ Mesh centre_in_shells(const Mesh& mesh, const SdfGrid& before, const SdfGrid& af
     ShellCentreStats st;
     st.applied = true;
     const std::vector<float> pre = detail::lattice_values(before), post = detail::lattice_values(after);
-    const Lattice field_before{before.spec, pre}, field_after{after.spec, post};
+    const detail::TrilinearLattice field_before{before.spec, pre}, field_after{after.spec, post};
     const Points normals = mesh_vertex_normals(mesh);
     const double step = 0.25 * before.spec.spacing().minCoeff();
     const int steps = static_cast<int>(std::ceil(max_thickness / step));
