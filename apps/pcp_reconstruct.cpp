@@ -305,6 +305,12 @@ int main(int argc, char** argv) {
             ("iso", "Iso level", cxxopts::value<double>()->default_value(fmt(d.iso)))
             ("thin-offset", "Keep thin parts whole: near the data, extract at iso + this (unit-box units, the cloud's longest edge 1), then move the mesh back by it (0: off)",
              cxxopts::value<double>()->default_value(fmt(d.thin_offset)))
+            ("sheet-gap", "Least gap between the two sides of a thin part, which the fit brings onto the same data (unit-box "
+                          "units; 0: off; include/pcp/mesh/sheet_gap.hpp)",
+             cxxopts::value<double>()->default_value(fmt(d.sheet_gap.enabled ? d.sheet_gap.min_gap : 0.0)))
+            ("thin-probe", "Where the field has no inside this many grid cells under a point of the data, raise the thin level "
+                           "there until it has (0: off)",
+             cxxopts::value<double>()->default_value(fmt(d.thin_probe)))
             ("margin", "Margin around the cloud's unit box", cxxopts::value<double>()->default_value(fmt(d.margin)))
             ("sign-repair", "on | off: flip regions of the fitted field whose sign the data does not support, on a coarse "
                             "grid (not in the paper; include/pcp/mesh/sign_repair.hpp)",
@@ -449,6 +455,13 @@ int main(int argc, char** argv) {
         o.sign_repair.far_levels = o.grid.far_levels;
         if (args.count("iso")) o.iso = args["iso"].as<double>();
         if (args.count("thin-offset")) o.thin_offset = args["thin-offset"].as<double>();
+        if (args.count("thin-probe")) o.thin_probe = args["thin-probe"].as<double>();
+        if (args.count("sheet-gap")) {
+            const double gap = args["sheet-gap"].as<double>();
+            if (!std::isfinite(gap) || gap < 0 || gap >= 0.1) throw pcp::cli::UsageError("--sheet-gap must be in [0, 0.1) (unit-box units)");
+            o.sheet_gap.enabled = gap > 0;
+            if (gap > 0) o.sheet_gap.min_gap = gap;
+        }
         if (args.count("margin")) o.margin = args["margin"].as<double>();
         if (o.fit.steps < 1 || o.fit.queries_per_step < 1 || !(o.fit.schedule.learning_rate > 0) || o.fit.width < 1 ||
             o.fit.depth < 1 || o.fit.schedule.progress_every < 1 || o.fit.schedule.checkpoint_every < 0)
@@ -714,6 +727,12 @@ int main(int argc, char** argv) {
                   : std::string())
           << (report.fairing.reverted > 0 ? ", " + std::to_string(report.fairing.reverted) + " patches left unfaired (their solve strayed)"
                                           : std::string())
+          << (report.sheet_gap.moved > 0 ? ", moved the sides of thin parts apart at " + std::to_string(report.sheet_gap.moved) +
+                                               " vertices (" + std::to_string(report.sheet_gap.crossed) + " had crossed; " +
+                                               fmt(report.sheet_gap.seconds) + " s)"
+                                         : std::string())
+          << (report.thin_raised > 0 ? ", thin level raised at " + std::to_string(report.thin_raised) + " points with no inside under them"
+                                     : std::string())
           << (o.scene.enabled ? ", scene mode removed " + std::to_string(report.scene_trimmed) + " faces with no data near them"
                               : std::string());
         log.info(s.str());

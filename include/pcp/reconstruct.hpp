@@ -12,6 +12,7 @@
 #include "pcp/mesh/field_normals.hpp"
 #include "pcp/mesh/fine_repair.hpp"
 #include "pcp/mesh/marching_cubes.hpp"
+#include "pcp/mesh/sheet_gap.hpp"
 #include "pcp/mesh/shell_centre.hpp"
 #include "pcp/mesh/through_carve.hpp"
 #include "pcp/mesh/tunnel_fill.hpp"
@@ -72,6 +73,20 @@ struct ReconstructOptions {
     /// no sheet there. Unit-box units (the cloud's longest edge is 1); 0: off. Measured on every
     /// shared case (docs/BENCHMARKS.md, "Thin parts kept whole").
     double thin_offset = 0.002;
+    /// Where the field has no inside under a point of the data (a sheet sampled as one layer of
+    /// points, a board thinner than the field resolves), the level near that point is raised
+    /// further: to the field's value at thin_probe grid cells along the point's PCA normal, the larger
+    /// of the two sides (at most thin_probe cells), so that the extracted slab is two of those deep
+    /// and the grid's samples cannot miss it (a thinner slab falls between them: holes in stripes).
+    /// Averaged over the 8 nearest points; never below thin_offset. 0: off (thin_offset everywhere).
+    double thin_probe = 1.0;
+    /// thin_probe's candidates are raised only with at least this many of their 8 nearest points
+    /// (themselves included) candidates too (ThinLevel::raise_where_thin): 3 on clean clouds; 6 on
+    /// the clouds the pipeline denoised, whose field has valleys in the noise band and over thin
+    /// noisy plates (abc_00010074 0.0072 -> 0.0081 of L2-CD x 100 at 3, 0.0076 at 6), while a
+    /// clean sheet's holes need 3 (at 6 a one-layer bowl kept dozens of holes).
+    int thin_company = 3;
+    int thin_company_noisy = 6;
     /// Narrow-band settings. The blocks whose corners certify that they are far from the zero set
     /// are interpolated, not evaluated (far_factor 2, the octree band's factor; docs/BENCHMARKS.md,
     /// "The dense grid from the blocks near the surface"), and the others are split down to 2-cell
@@ -102,6 +117,7 @@ struct ReconstructOptions {
     SurfaceFitOptions surface_fit;   ///< support filter and fit of the mesh onto the data (not in the paper)
     SmoothOptions smoothing;         ///< bilateral smoothing of the final mesh, of noisy clouds by default (not in the paper)
     FairOptions fairing;             ///< the surface where no data lies under it faired onto the supported rest, last (not in the paper; off in the scene mode)
+    SheetGapOptions sheet_gap;       ///< the two sides of a thin part at least min_gap apart, after the fairing (not in the paper)
     SceneOptions scene;              ///< open surfaces where the data ends (rooms); off except in the "scene" preset
     /// The oriented normals of the input points, when asked for (not in the paper): read off the
     /// final mesh at the nearest point (Mesh), the PCA normals oriented by it (PcaByMesh), or the
@@ -138,6 +154,8 @@ struct ReconstructReport {
     SurfaceFitStats surface_fit;     ///< what the surface fit removed and moved
     bool smoothed = false;           ///< the final mesh was smoothed (SmoothOptions: noisy for a denoised cloud, else clean)
     FairStats fairing;               ///< the vertices the fairing placed (all 0: none, or the scene mode)
+    SheetGapStats sheet_gap;         ///< the thin parts' sides moved apart
+    std::int64_t thin_raised = 0;    ///< input points whose thin level thin_probe raised (before averaging)
     FineRepairStats fine_repair;     ///< what the fine sign repair flipped
     CavityFillStats cavity_fill;     ///< what the cavity fill negated
     TunnelFillStats tunnel_fill;     ///< what the tunnel fill plugged

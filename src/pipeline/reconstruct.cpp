@@ -14,14 +14,17 @@
 #include "pcp/mesh/marching_cubes.hpp"
 #include "pcp/mesh/mesh_check.hpp"
 #include "pcp/mesh/surface_fit.hpp"
+#include "pcp/mesh/thin_level.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/train/builtin_prior.hpp"
 #include "mesh/sample_memo.hpp"
+#include "mesh/grid_samples.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -254,12 +257,9 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // twice that radius, so that a field hovering just above zero away from the data grows no sheet.
     const float thin = static_cast<float>(options.thin_offset);
     const float near_r = thin > 0 ? static_cast<float>(options.surface_fit.support_k * sampling_scale(cloud.tree())) : 0.0f;
-    const auto thin_level = [&](const Eigen::Vector3f& p) -> float {
-        float d = 0;
-        cloud.tree().nearest_point(p, &d);
-        if (d <= near_r) return thin;
-        return d >= 2 * near_r ? 0.0f : thin * (2.0f - d / near_r);
-    };
+    // The level near each input point: thin_offset, raised further below where the grid's solid
+    // has no inside under a point (include/pcp/mesh/thin_level.hpp).
+    ThinLevel thin_level(cloud.tree(), thin, near_r);
     const float sign = r.sign_flipped ? -1.0f : 1.0f;
     // The grid box is the cloud's box plus a margin, so its faces are outside the shape: the field
     // is clamped to be positive there, which closes any sheet that would leave the box.
@@ -357,6 +357,10 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     r.through_carve = carve_through_lines(grid, cloud.tree(), options.through_carve);
     // The dual: bridges of solid as thin, cut where that removes a handle and leaves the solid whole.
     r.bridge_cut = cut_bridges(grid, options.tunnel_fill);
+    // Sheets the grid's samples miss at thin_offset: their level raised (ReconstructOptions::thin_probe).
+    if (thin > 0 && options.thin_probe > 0)
+        r.thin_raised = thin_level.raise_where_thin(grid, static_cast<float>(options.thin_probe * spec.spacing().minCoeff()),
+                                                    r.denoise_passes > 0 ? options.thin_company_noisy : options.thin_company);
     r.winding_corrected = winding.corrected();
     r.sdf_reused = memo ? memo->reused() : 0;
     r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations - r.sdf_reused;
@@ -398,6 +402,23 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // Where no data lies under it, the smoothest surface that joins the data (FairOptions); a scene
     // trims those faces instead.
     if (options.fairing.enabled && !options.scene.enabled) unit_mesh = fair_unsupported(unit_mesh, fit_cloud, options.fairing, &r.fairing);
+    // The two sides of a thin part, which the move back and the fit bring onto the same data, apart
+    // again (include/pcp/mesh/sheet_gap.hpp), where the solid that marching cubes extracted lies
+    // between them.
+    // On a noisy cloud only near the sheets the thin level found: elsewhere the sides that meet
+    // there are a noisy field's crumpled pockets, which moving apart roughens (abc_00010089).
+    if (options.sheet_gap.enabled && (r.denoise_passes == 0 || r.thin_raised > 0)) {
+        const std::vector<float> solid_values = detail::lattice_values(grid);
+        const detail::TrilinearLattice solid{grid.spec, solid_values};
+        const bool everywhere = r.denoise_passes == 0;
+        unit_mesh = keep_sheets_apart(
+            unit_mesh,
+            [&](const Eigen::Vector3d& p) {
+                if (!everywhere && !thin_level.raised_at(p.cast<float>())) return std::numeric_limits<float>::quiet_NaN();
+                return solid.at(p.transpose());
+            },
+            options.sheet_gap, &r.sheet_gap);
+    }
     // Scenes: open where the data ends (ReconstructOptions::scene).
     if (options.scene.enabled) {
         unit_mesh = trim_unsupported_faces(unit_mesh, cloud.tree(), options.scene.support_k * sampling_scale(cloud.tree()),
@@ -467,6 +488,11 @@ void check_pipeline_options(const ReconstructOptions& options) {
     PCP_CHECK(options.max_fit_points >= 0, "reconstruct: max_fit_points must be >= 0, got " << options.max_fit_points);
     PCP_CHECK(std::isfinite(options.thin_offset) && options.thin_offset >= 0 && options.thin_offset < 0.1,
               "reconstruct: thin_offset must be in [0, 0.1) (unit-box units), got " << options.thin_offset);
+    PCP_CHECK(std::isfinite(options.thin_probe) && options.thin_probe >= 0 && options.thin_probe <= 4,
+              "reconstruct: thin_probe must be in [0, 4] (grid cells), got " << options.thin_probe);
+    PCP_CHECK(options.thin_company >= 1 && options.thin_company <= 8 && options.thin_company_noisy >= 1 && options.thin_company_noisy <= 8,
+              "reconstruct: thin_company and thin_company_noisy must be in [1, 8], got " << options.thin_company << " and "
+                                                                                        << options.thin_company_noisy);
 }
 
 /// Huge inputs: the fit sees a seeded uniform subsample (ReconstructOptions::max_fit_points); every

@@ -1,0 +1,149 @@
+// The thin level (see include/pcp/mesh/thin_level.hpp).
+#include "pcp/mesh/thin_level.hpp"
+
+#include "grid_samples.hpp"
+#include "pcp/core/error.hpp"
+#include "pcp/mesh/field_normals.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace pcp {
+namespace {
+
+/// Trilinear value of the stored samples of `grid` at `p`; NaN outside the box or where a corner is
+/// not stored.
+float grid_at(const SdfGrid& grid, const Eigen::Vector3f& p) {
+    const int R = grid.spec.resolution;
+    const Eigen::Vector3d u = ((p.cast<double>() - grid.spec.box.min).array() / grid.spec.spacing().array()).matrix();
+    if ((u.array() < 0).any() || (u.array() > R).any()) return std::numeric_limits<float>::quiet_NaN();
+    int c[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        c[a] = std::min(static_cast<int>(std::floor(u(a))), R - 1);
+        f[a] = u(a) - c[a];
+    }
+    double sum = 0;
+    for (int corner = 0; corner < 8; ++corner) {
+        const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
+        const double w = (dx ? f[0] : 1 - f[0]) * (dy ? f[1] : 1 - f[1]) * (dz ? f[2] : 1 - f[2]);
+        sum += w * static_cast<double>(grid.value(c[0] + dx, c[1] + dy, c[2] + dz));  // NaN if missing
+    }
+    return static_cast<float>(sum);
+}
+
+}  // namespace
+
+ThinLevel::ThinLevel(const KdTree& cloud, float offset, float near_radius) : cloud_(cloud), offset_(offset), near_(near_radius) {
+    PCP_CHECK(std::isfinite(offset) && offset >= 0, "thin level: offset must be >= 0, got " << offset);
+    PCP_CHECK(std::isfinite(near_radius) && near_radius >= 0, "thin level: near_radius must be >= 0, got " << near_radius);
+}
+
+float ThinLevel::level_at(const Eigen::Vector3f& p, const std::vector<float>* levels) const {
+    if (offset_ <= 0) return 0.0f;
+    float d = 0;
+    const std::int32_t k = cloud_.nearest_point(p, &d);
+    const float at = levels && !levels->empty() ? (*levels)[static_cast<std::size_t>(k)] : offset_;
+    if (d <= near_) return at;
+    return d >= 2 * near_ ? 0.0f : at * (2.0f - d / near_);
+}
+
+float ThinLevel::operator()(const Eigen::Vector3f& p) const { return level_at(p, &levels_); }
+
+bool ThinLevel::raised_at(const Eigen::Vector3f& p) const {
+    if (near_raised_.empty()) return false;
+    return near_raised_[static_cast<std::size_t>(cloud_.nearest_point(p))] != 0;
+}
+
+std::int64_t ThinLevel::raise_where_thin(SdfGrid& grid, float reach, int min_company) {
+    PCP_CHECK(std::isfinite(reach) && reach > 0, "thin level: reach must be > 0, got " << reach);
+    PCP_CHECK(min_company >= 1 && min_company <= 8, "thin level: min_company must be in [1, 8], got " << min_company);
+    if (offset_ <= 0) return 0;
+    const Eigen::Index n = cloud_.size();
+    const PointsF& pts = cloud_.points();
+    const PointsF normals = pca_normals(cloud_, static_cast<int>(std::clamp<Eigen::Index>(n, 3, 16)));
+    std::vector<float> own(static_cast<std::size_t>(n), offset_);
+    std::int64_t raised = 0;
+#pragma omp parallel for schedule(static) reduction(+ : raised)
+    for (Eigen::Index i = 0; i < n; ++i) {
+        const Eigen::Vector3f p = pts.row(i).transpose(), d = reach * normals.row(i).transpose();
+        const float at = grid_at(grid, p), up = grid_at(grid, p + d), down = grid_at(grid, p - d);
+        // The point outside the extracted solid but not far out (the mesh would miss it), in a
+        // valley of the field along its normal (larger on both sides: a sheet the level does not
+        // reach, not the outer fringe of a noise band, where the field falls inward). NaN anywhere:
+        // a sample not stored, far from the zero set.
+        if (!(at >= 0 && at < reach) || !(up > at) || !(down > at)) continue;
+        own[static_cast<std::size_t>(i)] = std::min(offset_ + std::max(up, down), std::max(offset_, reach));
+        ++raised;
+    }
+    if (raised == 0) return 0;
+    const int k = static_cast<int>(std::min<Eigen::Index>(8, n));
+    NeighborIndices idx;
+    NeighborDistances dist;
+    cloud_.knn(pts, k, idx, dist);
+    // A sheet's points come in patches; a point raised with fewer than min_company of its k nearest
+    // (itself included) raised is a noisy scan's artefact, not a sheet.
+    {
+        std::vector<float> kept = own;
+        std::int64_t left = 0;
+        for (Eigen::Index i = 0; i < n; ++i) {
+            if (own[static_cast<std::size_t>(i)] <= offset_) continue;
+            int c = 0;
+            for (int j = 0; j < k; ++j) c += own[static_cast<std::size_t>(idx(i, j))] > offset_;
+            if (c < min_company) kept[static_cast<std::size_t>(i)] = offset_;
+            else ++left;
+        }
+        own.swap(kept);
+        raised = left;
+        if (raised == 0) return 0;
+    }
+    // Spread to the neighbours (the largest among its k nearest: the sheet's points that the solid
+    // holds between its holes come out at the holes' level), then averaged over them.
+    std::vector<float> spread(static_cast<std::size_t>(n)), levels(static_cast<std::size_t>(n));
+    for (Eigen::Index i = 0; i < n; ++i) {
+        float m = 0;
+        for (int j = 0; j < k; ++j) m = std::max(m, own[static_cast<std::size_t>(idx(i, j))]);
+        spread[static_cast<std::size_t>(i)] = m;
+    }
+    for (Eigen::Index i = 0; i < n; ++i) {
+        double sum = 0;
+        for (int j = 0; j < k; ++j) sum += spread[static_cast<std::size_t>(idx(i, j))];
+        levels[static_cast<std::size_t>(i)] = std::max(offset_, static_cast<float>(sum / k));
+    }
+    // The samples near the zero set, shifted by the change of the level at their position (every
+    // stored copy of a sample alike: the shift depends on the position only).
+    // Only the lattice points within the level's reach (twice near_radius) of a raised point can
+    // change: those are marked first, point by point, so that a few raised points cost little.
+    const float band = 2 * reach;
+    const int n1 = grid.spec.resolution + 1;
+    std::vector<bool> touched(static_cast<std::size_t>(std::int64_t(n1) * n1 * n1), false);
+    const Eigen::Vector3d cell = grid.spec.spacing();
+    const double radius = 2.0 * near_;
+    for (Eigen::Index i = 0; i < n; ++i) {
+        if (!(levels[static_cast<std::size_t>(i)] > offset_)) continue;
+        const Eigen::Vector3d p = pts.row(i).transpose().cast<double>();
+        int lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::max(0, static_cast<int>(std::floor((p(a) - radius - grid.spec.box.min(a)) / cell(a))));
+            hi[a] = std::min(n1 - 1, static_cast<int>(std::ceil((p(a) + radius - grid.spec.box.min(a)) / cell(a))));
+        }
+        for (int z = lo[2]; z <= hi[2]; ++z)
+            for (int y = lo[1]; y <= hi[1]; ++y)
+                for (int x = lo[0]; x <= hi[0]; ++x) touched[static_cast<std::size_t>((std::int64_t(z) * n1 + y) * n1 + x)] = true;
+    }
+    detail::for_each_stored_sample(grid, [&](float& v, std::int64_t g) {
+        if (!touched[static_cast<std::size_t>(g)] || std::abs(v) > band) return;
+        const Eigen::Vector3f q = grid.spec.sample_position(g % n1, (g / n1) % n1, g / (std::int64_t(n1) * n1)).cast<float>();
+        v -= level_at(q, &levels) - level_at(q, nullptr);
+    });
+    // The points whose level rose, and their neighbours (raised_at).
+    near_raised_.assign(static_cast<std::size_t>(n), 0);
+    for (Eigen::Index i = 0; i < n; ++i)
+        if (levels[static_cast<std::size_t>(i)] > offset_)
+            for (int j = 0; j < k; ++j) near_raised_[static_cast<std::size_t>(idx(i, j))] = 1;
+    levels_ = std::move(levels);
+    return raised;
+}
+
+}  // namespace pcp
