@@ -44,30 +44,38 @@ inline std::vector<float> lattice_values(const SdfGrid& grid) {
     return out;
 }
 
-/// Trilinear interpolation of the lattice at `p` (unit box); NaN outside the grid box or where a
-/// corner sample is missing.
+/// Trilinear interpolation at `p` (unit box) of the lattice values fetch(i, j, k) of `spec`; NaN
+/// outside the grid box or where a corner's value is NaN.
+template <class Fetch>
+float trilinear_at(const GridSpec& spec, const Eigen::Vector3d& p, Fetch&& fetch) {
+    const int R = spec.resolution;
+    const Eigen::Vector3d u = ((p - spec.box.min).array() / spec.spacing().array()).matrix();
+    if ((u.array() < 0).any() || (u.array() > R).any()) return std::numeric_limits<float>::quiet_NaN();
+    int c[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        c[a] = std::min(static_cast<int>(std::floor(u(a))), R - 1);
+        f[a] = u(a) - c[a];
+    }
+    double sum = 0;
+    for (int corner = 0; corner < 8; ++corner) {
+        const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
+        const double w = (dx ? f[0] : 1 - f[0]) * (dy ? f[1] : 1 - f[1]) * (dz ? f[2] : 1 - f[2]);
+        sum += w * static_cast<double>(fetch(c[0] + dx, c[1] + dy, c[2] + dz));  // a NaN corner makes the sum NaN
+    }
+    return static_cast<float>(sum);
+}
+
+/// Trilinear interpolation of the dense lattice `v` (lattice_values) at `p` (unit box); NaN outside
+/// the grid box or where a corner sample is missing.
 struct TrilinearLattice {
     const GridSpec& spec;
     const std::vector<float>& v;
 
     float at(const Eigen::RowVector3d& p) const {
-        const int R = spec.resolution, n1 = R + 1;
-        const Eigen::Vector3d u = ((p.transpose() - spec.box.min).array() / spec.spacing().array()).matrix();
-        if ((u.array() < 0).any() || (u.array() > R).any()) return std::numeric_limits<float>::quiet_NaN();
-        int c[3];
-        double f[3];
-        for (int a = 0; a < 3; ++a) {
-            c[a] = std::min(static_cast<int>(std::floor(u(a))), R - 1);
-            f[a] = u(a) - c[a];
-        }
-        double sum = 0;
-        for (int corner = 0; corner < 8; ++corner) {
-            const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
-            const float s = v[static_cast<std::size_t>((std::int64_t(c[2] + dz) * n1 + (c[1] + dy)) * n1 + (c[0] + dx))];
-            const double w = (dx ? f[0] : 1 - f[0]) * (dy ? f[1] : 1 - f[1]) * (dz ? f[2] : 1 - f[2]);
-            sum += w * static_cast<double>(s);  // a NaN corner makes the sum NaN
-        }
-        return static_cast<float>(sum);
+        const std::int64_t n1 = spec.resolution + 1;
+        return trilinear_at(spec, p.transpose(),
+                            [&](int i, int j, int k) { return v[static_cast<std::size_t>((k * n1 + j) * n1 + i)]; });
     }
 };
 

@@ -15,22 +15,7 @@ namespace {
 /// Trilinear value of the stored samples of `grid` at `p`; NaN outside the box or where a corner is
 /// not stored.
 float grid_at(const SdfGrid& grid, const Eigen::Vector3f& p) {
-    const int R = grid.spec.resolution;
-    const Eigen::Vector3d u = ((p.cast<double>() - grid.spec.box.min).array() / grid.spec.spacing().array()).matrix();
-    if ((u.array() < 0).any() || (u.array() > R).any()) return std::numeric_limits<float>::quiet_NaN();
-    int c[3];
-    double f[3];
-    for (int a = 0; a < 3; ++a) {
-        c[a] = std::min(static_cast<int>(std::floor(u(a))), R - 1);
-        f[a] = u(a) - c[a];
-    }
-    double sum = 0;
-    for (int corner = 0; corner < 8; ++corner) {
-        const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
-        const double w = (dx ? f[0] : 1 - f[0]) * (dy ? f[1] : 1 - f[1]) * (dz ? f[2] : 1 - f[2]);
-        sum += w * static_cast<double>(grid.value(c[0] + dx, c[1] + dy, c[2] + dz));  // NaN if missing
-    }
-    return static_cast<float>(sum);
+    return detail::trilinear_at(grid.spec, p.cast<double>(), [&](int i, int j, int k) { return grid.value(i, j, k); });
 }
 
 }  // namespace
@@ -56,9 +41,10 @@ bool ThinLevel::raised_at(const Eigen::Vector3f& p) const {
     return near_raised_[static_cast<std::size_t>(cloud_.nearest_point(p))] != 0;
 }
 
-std::int64_t ThinLevel::raise_where_thin(SdfGrid& grid, float reach, int min_company) {
+std::int64_t ThinLevel::raise_where_thin(SdfGrid& grid, float reach, int min_company, double min_share) {
     PCP_CHECK(std::isfinite(reach) && reach > 0, "thin level: reach must be > 0, got " << reach);
     PCP_CHECK(min_company >= 1 && min_company <= 8, "thin level: min_company must be in [1, 8], got " << min_company);
+    PCP_CHECK(min_share >= 0 && min_share <= 1, "thin level: min_share must be in [0, 1], got " << min_share);
     if (offset_ <= 0) return 0;
     const Eigen::Index n = cloud_.size();
     const PointsF& pts = cloud_.points();
@@ -96,7 +82,9 @@ std::int64_t ThinLevel::raise_where_thin(SdfGrid& grid, float reach, int min_com
         }
         own.swap(kept);
         raised = left;
-        if (raised == 0) return 0;
+        // Sheets sampled as one layer are a sizeable part of a surface; a few patches on a solid are
+        // the field's, and raising them adds handles (the built-in shape: 16 points, genus 1 -> 6).
+        if (raised == 0 || static_cast<double>(raised) < min_share * static_cast<double>(n)) return 0;
     }
     // Spread to the neighbours (the largest among its k nearest: the sheet's points that the solid
     // holds between its holes come out at the holes' level), then averaged over them.

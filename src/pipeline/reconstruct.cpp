@@ -360,7 +360,8 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // Sheets the grid's samples miss at thin_offset: their level raised (ReconstructOptions::thin_probe).
     if (thin > 0 && options.thin_probe > 0)
         r.thin_raised = thin_level.raise_where_thin(grid, static_cast<float>(options.thin_probe * spec.spacing().minCoeff()),
-                                                    r.denoise_passes > 0 ? options.thin_company_noisy : options.thin_company);
+                                                    r.denoise_passes > 0 ? options.thin_company_noisy : options.thin_company,
+                                                    options.thin_min_share);
     r.winding_corrected = winding.corrected();
     r.sdf_reused = memo ? memo->reused() : 0;
     r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations - r.sdf_reused;
@@ -493,6 +494,8 @@ void check_pipeline_options(const ReconstructOptions& options) {
     PCP_CHECK(options.thin_company >= 1 && options.thin_company <= 8 && options.thin_company_noisy >= 1 && options.thin_company_noisy <= 8,
               "reconstruct: thin_company and thin_company_noisy must be in [1, 8], got " << options.thin_company << " and "
                                                                                         << options.thin_company_noisy);
+    PCP_CHECK(std::isfinite(options.thin_min_share) && options.thin_min_share >= 0 && options.thin_min_share <= 1,
+              "reconstruct: thin_min_share must be in [0, 1], got " << options.thin_min_share);
 }
 
 /// Huge inputs: the fit sees a seeded uniform subsample (ReconstructOptions::max_fit_points); every

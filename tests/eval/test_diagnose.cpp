@@ -50,15 +50,6 @@ pcp::Mesh triangle_soup(const pcp::Mesh& mesh) {
     return soup;
 }
 
-pcp::Mesh concat(const pcp::Mesh& a, const pcp::Mesh& b) {
-    pcp::Mesh m;
-    m.vertices.resize(a.vertices.rows() + b.vertices.rows(), 3);
-    m.vertices << a.vertices, b.vertices;
-    m.faces.resize(a.faces.rows() + b.faces.rows(), 3);
-    m.faces << a.faces, (b.faces.array() + static_cast<std::int32_t>(a.vertices.rows())).matrix();
-    return m;
-}
-
 pcp::Mesh translated(pcp::Mesh m, const Eigen::RowVector3d& t) {
     m.vertices.rowwise() += t;
     return m;
@@ -117,7 +108,7 @@ TEST_CASE("diagnose: a sphere and a torus against themselves: one component, its
 TEST_CASE("diagnose: a detached sphere with no input near it is one floating component, counted as away", "[diagnose]") {
     const pcp::Mesh sphere = pcp::test::uv_sphere(1.0, 48, 96);
     const pcp::Mesh blob = translated(pcp::test::uv_sphere(0.25, 16, 32), Eigen::RowVector3d(1.8, 0, 0));
-    const pcp::Mesh pred = concat(sphere, blob);
+    const pcp::Mesh pred = pcp::test::concat(sphere, blob);
     const pcp::Points input = pcp::sample_sphere(20000, 1.0, Eigen::Vector3d::Zero(), 3).points;
     const Eigen::Ref<const pcp::Points> input_ref(input);
     const pcp::Diagnosis d = pcp::diagnose(pred, sphere, &input_ref);

@@ -3,6 +3,7 @@
 // narrow gap (outside between them), are not touched; bad arguments are refused.
 #include "pcp/core/error.hpp"
 #include "pcp/mesh/sheet_gap.hpp"
+#include "test_meshes.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -33,15 +34,6 @@ pcp::Mesh sheet(double z, bool up, int n = 21) {
     return m;
 }
 
-pcp::Mesh join(const pcp::Mesh& a, const pcp::Mesh& b) {
-    pcp::Mesh m;
-    m.vertices.resize(a.vertices.rows() + b.vertices.rows(), 3);
-    m.vertices << a.vertices, b.vertices;
-    m.faces.resize(a.faces.rows() + b.faces.rows(), 3);
-    m.faces << a.faces, (b.faces.array() + static_cast<std::int32_t>(a.vertices.rows())).matrix();
-    return m;
-}
-
 // Interior vertices only (away from the sheets' rims, where the one-ring normals tilt).
 template <class Fn>
 void for_interior(const pcp::Mesh& m, Eigen::Index first, Eigen::Index count, Fn&& fn) {
@@ -54,7 +46,7 @@ void for_interior(const pcp::Mesh& m, Eigen::Index first, Eigen::Index count, Fn
 TEST_CASE("sheet gap: the crossed sides of a thin slab move apart to the gap, about where they were", "[mesh][sheet_gap]") {
     // The slab |z| < 0.01 is the solid; its top side (normal +z) has crossed below its bottom side.
     const double e = 0.001, gap = 0.004;
-    const pcp::Mesh m = join(sheet(-e, true), sheet(+e, false));
+    const pcp::Mesh m = pcp::test::concat(sheet(-e, true), sheet(+e, false));
     const pcp::SolidFn slab = [](const Eigen::Vector3d& p) { return static_cast<float>(std::abs(p.z()) - 0.01); };
     pcp::SheetGapOptions o;
     o.min_gap = gap;
@@ -86,7 +78,7 @@ TEST_CASE("sheet gap: a slab wider than the gap, and a narrow gap between walls,
     o.min_gap = 0.004;
     pcp::SheetGapStats st;
     SECTION("a thin slab already 0.006 thick") {
-        const pcp::Mesh m = join(sheet(0.003, true), sheet(-0.003, false));
+        const pcp::Mesh m = pcp::test::concat(sheet(0.003, true), sheet(-0.003, false));
         const pcp::SolidFn slab = [](const Eigen::Vector3d& p) { return static_cast<float>(std::abs(p.z()) - 0.003); };
         const pcp::Mesh out = pcp::keep_sheets_apart(m, slab, o, &st);
         CHECK(out.vertices == m.vertices);
@@ -96,7 +88,7 @@ TEST_CASE("sheet gap: a slab wider than the gap, and a narrow gap between walls,
     SECTION("walls facing each other across a 0.002 gap: outside between them") {
         // The bottom wall's outside is up (+z), the top wall's down: the same local picture as the
         // crossed slab above; only the solid between them differs.
-        const pcp::Mesh m = join(sheet(-0.001, true), sheet(0.001, false));
+        const pcp::Mesh m = pcp::test::concat(sheet(-0.001, true), sheet(0.001, false));
         const pcp::SolidFn gap = [](const Eigen::Vector3d& p) { return static_cast<float>(0.001 - std::abs(p.z())); };
         const pcp::Mesh out = pcp::keep_sheets_apart(m, gap, o, &st);
         CHECK(out.vertices == m.vertices);
@@ -105,7 +97,7 @@ TEST_CASE("sheet gap: a slab wider than the gap, and a narrow gap between walls,
         CHECK(st.moved == 0);
     }
     SECTION("off") {
-        const pcp::Mesh m = join(sheet(-0.001, true), sheet(0.001, false));
+        const pcp::Mesh m = pcp::test::concat(sheet(-0.001, true), sheet(0.001, false));
         o.enabled = false;
         const pcp::Mesh out = pcp::keep_sheets_apart(m, [](const Eigen::Vector3d&) { return -1.0f; }, o, &st);
         CHECK(out.vertices == m.vertices);

@@ -50,4 +50,14 @@ inline Mesh unit_square() {
     return m;
 }
 
+/// The two meshes as one (b's faces re-indexed after a's vertices).
+inline Mesh concat(const Mesh& a, const Mesh& b) {
+    Mesh m;
+    m.vertices.resize(a.vertices.rows() + b.vertices.rows(), 3);
+    m.vertices << a.vertices, b.vertices;
+    m.faces.resize(a.faces.rows() + b.faces.rows(), 3);
+    m.faces << a.faces, (b.faces.array() + static_cast<std::int32_t>(a.vertices.rows())).matrix();
+    return m;
+}
+
 }  // namespace pcp::test

@@ -21,7 +21,10 @@
 // raised, nor one where the field falls on one side, nor one with fewer than min_company of its 8
 // nearest points (itself included) such candidates: a sheet's points come in patches, the few a
 // noisy scan's field gives are scattered (the ten ABC scans: 45-2,400 candidates, most alone;
-// raising them cost abc_00010074 0.0005 of L2-CD x 100). Each point then takes the largest level among
+// raising them cost abc_00010074 0.0005 of L2-CD x 100); and nothing at all when fewer than
+// min_share of all points are left (a one-layer sheet is a sizeable part of a surface; the few
+// patches of a solid's field, raised, add handles: the built-in shape's 16 points, genus 1 -> 6).
+// Each point then takes the largest level among
 // its 8 nearest points (the points of a sheet that the solid holds between its holes rise with
 // them), and those are averaged over the same neighbours (a seam would be a step in the level).
 // The grid's samples near the zero set are shifted by the change of the level at their position,
@@ -55,8 +58,9 @@ public:
     /// nothing within `reach` (> 0) of an input point along its PCA normal, and shifts the grid's
     /// samples with |value| <= 2 reach by the change (see above). Returns the points raised (before
     /// averaging). A candidate point with fewer than `min_company` (1..8) of its 8 nearest points
-    /// (itself included) candidates is not raised. Nothing happens when offset is 0.
-    std::int64_t raise_where_thin(SdfGrid& grid, float reach, int min_company = 3);
+    /// (itself included) candidates is not raised; nothing is raised when fewer than `min_share` of
+    /// all points would be. Nothing happens when offset is 0.
+    std::int64_t raise_where_thin(SdfGrid& grid, float reach, int min_company = 3, double min_share = 0.0);
 
 private:
     float level_at(const Eigen::Vector3f& p, const std::vector<float>* levels) const;
