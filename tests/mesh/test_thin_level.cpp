@@ -66,6 +66,23 @@ TEST_CASE("thin level: a sheet with no inside is raised until the grid's samples
     CHECK((slab.vertices.col(2).array() - z0).abs().maxCoeff() < 1.5 * cell);
 }
 
+TEST_CASE("thin level: nothing is raised when fewer than min_share of the points would be", "[mesh][thin_level]") {
+    // The sheet above plus as many points far above it (the field 0.2 there: not thin): half raised.
+    const double cell = 1.2 / 32, z0 = 0.5 * cell;
+    const pcp::PointsF sheet = sheet_points(z0), above = sheet_points(0.35);
+    pcp::PointsF both(sheet.rows() + above.rows(), 3);
+    both << sheet, above;
+    const pcp::KdTree cloud(both);
+    pcp::ThinLevel level(cloud, 0.002f, 0.02f);
+    const ScalarSdf field = [&](const Eigen::Vector3d& p) { return 0.6 * std::abs(p.z() - z0) + 0.001 - level(p.cast<float>()); };
+    pcp::SdfGrid grid = dense_grid(field, 32);
+    const pcp::SdfGrid before = grid;
+    CHECK(level.raise_where_thin(grid, static_cast<float>(cell), 3, 0.6) == 0);
+    CHECK(grid.values == before.values);
+    CHECK(level(Eigen::Vector3f(0.0f, 0.0f, float(z0))) == 0.002f);
+    CHECK(level.raise_where_thin(grid, static_cast<float>(cell), 3, 0.4) == sheet.rows());
+}
+
 TEST_CASE("thin level: the surface of a solid is not raised", "[mesh][thin_level]") {
     const pcp::PointCloud sphere = pcp::sample_sphere(4000, 0.3, Eigen::Vector3d::Zero(), 5);
     const pcp::KdTree cloud(sphere.points.cast<float>());
