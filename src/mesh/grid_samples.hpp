@@ -79,6 +79,12 @@ struct TrilinearLattice {
     }
 };
 
+/// Trilinear interpolation of the stored samples of `grid` at `p` (unit box), without a dense copy;
+/// NaN outside the box or where a corner is not stored.
+inline float stored_at(const SdfGrid& grid, const Eigen::Vector3d& p) {
+    return trilinear_at(grid.spec, p, [&](int i, int j, int k) { return grid.value(i, j, k); });
+}
+
 /// Which lattice points lie within tau of an input point (index (k * n1 + j) * n1 + i, 1 = near):
 /// the same float distance and test as a nearest query per point (d <= tau), computed by stamping
 /// each input point's ball on the lattice (every lattice point in a ball marked), at a fraction of

@@ -10,16 +10,6 @@
 #include <limits>
 
 namespace pcp {
-namespace {
-
-/// Trilinear value of the stored samples of `grid` at `p`; NaN outside the box or where a corner is
-/// not stored.
-float grid_at(const SdfGrid& grid, const Eigen::Vector3f& p) {
-    return detail::trilinear_at(grid.spec, p.cast<double>(), [&](int i, int j, int k) { return grid.value(i, j, k); });
-}
-
-}  // namespace
-
 ThinLevel::ThinLevel(const KdTree& cloud, float offset, float near_radius) : cloud_(cloud), offset_(offset), near_(near_radius) {
     PCP_CHECK(std::isfinite(offset) && offset >= 0, "thin level: offset must be >= 0, got " << offset);
     PCP_CHECK(std::isfinite(near_radius) && near_radius >= 0, "thin level: near_radius must be >= 0, got " << near_radius);
@@ -54,7 +44,7 @@ std::int64_t ThinLevel::raise_where_thin(SdfGrid& grid, float reach, int min_com
 #pragma omp parallel for schedule(static) reduction(+ : raised)
     for (Eigen::Index i = 0; i < n; ++i) {
         const Eigen::Vector3f p = pts.row(i).transpose(), d = reach * normals.row(i).transpose();
-        const float at = grid_at(grid, p), up = grid_at(grid, p + d), down = grid_at(grid, p - d);
+        const float at = detail::stored_at(grid, p.cast<double>()), up = detail::stored_at(grid, (p + d).cast<double>()), down = detail::stored_at(grid, (p - d).cast<double>());
         // The point outside the extracted solid but not far out (the mesh would miss it), in a
         // valley of the field along its normal (larger on both sides: a sheet the level does not
         // reach, not the outer fringe of a noise band, where the field falls inward). NaN anywhere:

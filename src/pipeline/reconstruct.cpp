@@ -409,14 +409,12 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // On a noisy cloud only near the sheets the thin level found: elsewhere the sides that meet
     // there are a noisy field's crumpled pockets, which moving apart roughens (abc_00010089).
     if (options.sheet_gap.enabled && (r.denoise_passes == 0 || r.thin_raised > 0)) {
-        const std::vector<float> solid_values = detail::lattice_values(grid);
-        const detail::TrilinearLattice solid{grid.spec, solid_values};
         const bool everywhere = r.denoise_passes == 0;
         unit_mesh = keep_sheets_apart(
             unit_mesh,
             [&](const Eigen::Vector3d& p) {
                 if (!everywhere && !thin_level.raised_at(p.cast<float>())) return std::numeric_limits<float>::quiet_NaN();
-                return solid.at(p.transpose());
+                return detail::stored_at(grid, p);
             },
             options.sheet_gap, &r.sheet_gap);
     }
