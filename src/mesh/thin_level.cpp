@@ -31,6 +31,42 @@ bool ThinLevel::raised_at(const Eigen::Vector3f& p) const {
     return near_raised_[static_cast<std::size_t>(cloud_.nearest_point(p))] != 0;
 }
 
+void ThinLevel::shift_samples(SdfGrid& grid, float reach, const std::vector<float>& levels) const {
+    // The samples near the zero set, shifted by the change of the level at their position (every
+    // stored copy of a sample alike: the shift depends on the position only).
+    // Only the lattice points within the level's reach (twice near_radius) of a raised point can
+    // change: those are marked first, point by point, so that a few raised points cost little.
+    const PointsF& pts = cloud_.points();
+    const Eigen::Index n = pts.rows();
+    const float band = 2 * reach;
+    const int n1 = grid.spec.resolution + 1;
+    std::vector<bool> touched(static_cast<std::size_t>(std::int64_t(n1) * n1 * n1), false);
+    const Eigen::Vector3d cell = grid.spec.spacing();
+    const double radius = 2.0 * near_;
+    for (Eigen::Index i = 0; i < n; ++i) {
+        if (!(levels[static_cast<std::size_t>(i)] > offset_)) continue;
+        const Eigen::Vector3d p = pts.row(i).transpose().cast<double>();
+        int lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::max(0, static_cast<int>(std::floor((p(a) - radius - grid.spec.box.min(a)) / cell(a))));
+            hi[a] = std::min(n1 - 1, static_cast<int>(std::ceil((p(a) + radius - grid.spec.box.min(a)) / cell(a))));
+        }
+        for (int z = lo[2]; z <= hi[2]; ++z)
+            for (int y = lo[1]; y <= hi[1]; ++y)
+                for (int x = lo[0]; x <= hi[0]; ++x) touched[static_cast<std::size_t>((std::int64_t(z) * n1 + y) * n1 + x)] = true;
+    }
+    detail::for_each_stored_sample(grid, [&](float& v, std::int64_t g) {
+        if (!touched[static_cast<std::size_t>(g)] || std::abs(v) > band) return;
+        const Eigen::Vector3f q = grid.spec.sample_position(g % n1, (g / n1) % n1, g / (std::int64_t(n1) * n1)).cast<float>();
+        v -= level_at(q, &levels) - level_at(q, nullptr);
+    });
+}
+
+void ThinLevel::shift_like_raise(SdfGrid& grid, float reach) const {
+    if (levels_.empty()) return;
+    shift_samples(grid, reach, levels_);
+}
+
 std::int64_t ThinLevel::raise_where_thin(SdfGrid& grid, float reach, int min_company, double min_share) {
     PCP_CHECK(std::isfinite(reach) && reach > 0, "thin level: reach must be > 0, got " << reach);
     PCP_CHECK(min_company >= 1 && min_company <= 8, "thin level: min_company must be in [1, 8], got " << min_company);
@@ -89,32 +125,7 @@ std::int64_t ThinLevel::raise_where_thin(SdfGrid& grid, float reach, int min_com
         for (int j = 0; j < k; ++j) sum += spread[static_cast<std::size_t>(idx(i, j))];
         levels[static_cast<std::size_t>(i)] = std::max(offset_, static_cast<float>(sum / k));
     }
-    // The samples near the zero set, shifted by the change of the level at their position (every
-    // stored copy of a sample alike: the shift depends on the position only).
-    // Only the lattice points within the level's reach (twice near_radius) of a raised point can
-    // change: those are marked first, point by point, so that a few raised points cost little.
-    const float band = 2 * reach;
-    const int n1 = grid.spec.resolution + 1;
-    std::vector<bool> touched(static_cast<std::size_t>(std::int64_t(n1) * n1 * n1), false);
-    const Eigen::Vector3d cell = grid.spec.spacing();
-    const double radius = 2.0 * near_;
-    for (Eigen::Index i = 0; i < n; ++i) {
-        if (!(levels[static_cast<std::size_t>(i)] > offset_)) continue;
-        const Eigen::Vector3d p = pts.row(i).transpose().cast<double>();
-        int lo[3], hi[3];
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = std::max(0, static_cast<int>(std::floor((p(a) - radius - grid.spec.box.min(a)) / cell(a))));
-            hi[a] = std::min(n1 - 1, static_cast<int>(std::ceil((p(a) + radius - grid.spec.box.min(a)) / cell(a))));
-        }
-        for (int z = lo[2]; z <= hi[2]; ++z)
-            for (int y = lo[1]; y <= hi[1]; ++y)
-                for (int x = lo[0]; x <= hi[0]; ++x) touched[static_cast<std::size_t>((std::int64_t(z) * n1 + y) * n1 + x)] = true;
-    }
-    detail::for_each_stored_sample(grid, [&](float& v, std::int64_t g) {
-        if (!touched[static_cast<std::size_t>(g)] || std::abs(v) > band) return;
-        const Eigen::Vector3f q = grid.spec.sample_position(g % n1, (g / n1) % n1, g / (std::int64_t(n1) * n1)).cast<float>();
-        v -= level_at(q, &levels) - level_at(q, nullptr);
-    });
+    shift_samples(grid, reach, levels);
     // The points whose level rose, and their neighbours (raised_at).
     near_raised_.assign(static_cast<std::size_t>(n), 0);
     for (Eigen::Index i = 0; i < n; ++i)

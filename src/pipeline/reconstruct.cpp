@@ -358,10 +358,14 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // The dual: bridges of solid as thin, cut where that removes a handle and leaves the solid whole.
     r.bridge_cut = cut_bridges(grid, options.tunnel_fill);
     // Sheets the grid's samples miss at thin_offset: their level raised (ReconstructOptions::thin_probe).
-    if (thin > 0 && options.thin_probe > 0)
-        r.thin_raised = thin_level.raise_where_thin(grid, static_cast<float>(options.thin_probe * spec.spacing().minCoeff()),
-                                                    r.denoise_passes > 0 ? options.thin_company_noisy : options.thin_company,
+    if (thin > 0 && options.thin_probe > 0) {
+        const auto reach = static_cast<float>(options.thin_probe * spec.spacing().minCoeff());
+        r.thin_raised = thin_level.raise_where_thin(grid, reach, r.denoise_passes > 0 ? options.thin_company_noisy : options.thin_company,
                                                     options.thin_min_share);
+        // The shell centring's copy from before the fill alike, or a raised sheet looks to it like a
+        // hollow the fill closed.
+        if (before_fill) thin_level.shift_like_raise(*before_fill, reach);
+    }
     r.winding_corrected = winding.corrected();
     r.sdf_reused = memo ? memo->reused() : 0;
     r.sdf_evaluations = grid.stats.evaluations + repair.stats().evaluations - r.sdf_reused;

@@ -1,6 +1,6 @@
 // Tests for pcp/mesh/thin_level.hpp: the level near the data and its fade; a sheet whose field has
 // no inside, which the grid's samples miss at the fixed offset, is raised until marching cubes finds
-// it as one closed slab; the surface of a solid (its inside negative) is not raised; bad arguments.
+// it as one closed slab (another grid of the lattice shifted alike on request); the surface of a solid (its inside negative) is not raised; bad arguments.
 #include "mc_test_util.hpp"
 #include "pcp/cloud/kdtree.hpp"
 #include "pcp/cloud/shapes.hpp"
@@ -48,8 +48,14 @@ TEST_CASE("thin level: a sheet with no inside is raised until the grid's samples
     const ScalarSdf field = [&](const Eigen::Vector3d& p) { return 0.6 * std::abs(p.z() - z0) + 0.001 - level(p.cast<float>()); };
     pcp::SdfGrid grid = dense_grid(field, 32);
     CHECK(pcp::marching_cubes(grid).faces.rows() == 0);
+    pcp::SdfGrid copy = grid;  // as the shell centring keeps one from before the fills
+    level.shift_like_raise(copy, static_cast<float>(cell));  // before the raise: nothing
+    CHECK(copy.values == grid.values);
     const std::int64_t raised = level.raise_where_thin(grid, static_cast<float>(cell));
     CHECK(raised == cloud.size());
+    CHECK(copy.values != grid.values);
+    level.shift_like_raise(copy, static_cast<float>(cell));  // after it: shifted alike
+    CHECK(copy.values == grid.values);
     // The level on the sheet: the offset plus the field one cell away (0.0235, less the faded
     // offset there), which puts both lattice planes inside.
     const float on_sheet = level(Eigen::Vector3f(0.0f, 0.0f, float(z0)));
@@ -79,6 +85,9 @@ TEST_CASE("thin level: nothing is raised when fewer than min_share of the points
     const pcp::SdfGrid before = grid;
     CHECK(level.raise_where_thin(grid, static_cast<float>(cell), 3, 0.6) == 0);
     CHECK(grid.values == before.values);
+    pcp::SdfGrid copy = before;
+    level.shift_like_raise(copy, static_cast<float>(cell));  // nothing raised: nothing shifted
+    CHECK(copy.values == before.values);
     CHECK(level(Eigen::Vector3f(0.0f, 0.0f, float(z0))) == 0.002f);
     CHECK(level.raise_where_thin(grid, static_cast<float>(cell), 3, 0.4) == sheet.rows());
 }
