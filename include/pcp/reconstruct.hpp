@@ -158,6 +158,7 @@ struct ReconstructReport {
     SurfaceFitStats surface_fit;     ///< what the surface fit removed and moved
     bool smoothed = false;           ///< the final mesh was smoothed (SmoothOptions: noisy for a denoised cloud, else clean)
     FairStats fairing;               ///< the vertices the fairing placed (all 0: none, or the scene mode)
+    std::int64_t collapsed_removed = 0;  ///< components the mesh stages shrank below the support filter's size, removed last (remove_small_components)
     SheetGapStats sheet_gap;         ///< the thin parts' sides moved apart
     std::int64_t thin_raised = 0;    ///< input points whose thin level thin_probe raised (before averaging)
     FineRepairStats fine_repair;     ///< what the fine sign repair flipped

@@ -469,6 +469,65 @@ Mesh trim_unsupported_faces(const Mesh& unit_mesh, const KdTree& cloud, double r
     return out;
 }
 
+Mesh remove_small_components(const Mesh& mesh, double min_diagonal, std::int64_t* removed) {
+    PCP_CHECK(min_diagonal >= 0 && std::isfinite(min_diagonal), "remove_small_components: min_diagonal must be finite and >= 0, got " << min_diagonal);
+    const Eigen::Index V = mesh.vertices.rows(), F = mesh.faces.rows();
+    PCP_CHECK(F == 0 || (mesh.faces.minCoeff() >= 0 && mesh.faces.maxCoeff() < V), "remove_small_components: a face index is out of range");
+    if (removed) *removed = 0;
+    std::vector<std::int32_t> parent(static_cast<std::size_t>(V));
+    std::iota(parent.begin(), parent.end(), 0);
+    for (Eigen::Index f = 0; f < F; ++f)
+        for (int k = 1; k < 3; ++k) {
+            const std::int32_t a = find_root(parent, mesh.faces(f, 0)), b = find_root(parent, mesh.faces(f, k));
+            if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
+        }
+    std::vector<char> used(static_cast<std::size_t>(V), 0);
+    for (Eigen::Index f = 0; f < F; ++f)
+        for (int k = 0; k < 3; ++k) used[static_cast<std::size_t>(mesh.faces(f, k))] = 1;
+    const double inf = std::numeric_limits<double>::infinity();
+    std::vector<std::int64_t> count(static_cast<std::size_t>(V), 0);
+    std::vector<Eigen::Vector3d> lo(static_cast<std::size_t>(V), Eigen::Vector3d::Constant(inf)),
+        hi(static_cast<std::size_t>(V), Eigen::Vector3d::Constant(-inf));
+    for (Eigen::Index v = 0; v < V; ++v) {
+        if (!used[static_cast<std::size_t>(v)]) continue;
+        const auto r = static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)));
+        ++count[r];
+        lo[r] = lo[r].cwiseMin(mesh.vertices.row(v).transpose());
+        hi[r] = hi[r].cwiseMax(mesh.vertices.row(v).transpose());
+    }
+    Eigen::Index largest = -1;
+    for (Eigen::Index v = 0; v < V; ++v)
+        if (count[static_cast<std::size_t>(v)] > 0 && (largest < 0 || count[static_cast<std::size_t>(v)] > count[static_cast<std::size_t>(largest)]))
+            largest = v;
+    std::vector<char> drop(static_cast<std::size_t>(V), 0);
+    std::int64_t n_removed = 0;
+    for (Eigen::Index v = 0; v < V; ++v) {
+        const auto vs = static_cast<std::size_t>(v);
+        if (count[vs] == 0 || v == largest || !((hi[vs] - lo[vs]).norm() < min_diagonal)) continue;
+        drop[vs] = 1;
+        ++n_removed;
+    }
+    if (removed) *removed = n_removed;
+    if (n_removed == 0) return mesh;
+    std::vector<std::int32_t> remap(static_cast<std::size_t>(V), -1);
+    std::int32_t nv = 0;
+    for (Eigen::Index v = 0; v < V; ++v)
+        if (used[static_cast<std::size_t>(v)] && !drop[static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)))])
+            remap[static_cast<std::size_t>(v)] = nv++;
+    Mesh out;
+    out.vertices.resize(nv, 3);
+    for (Eigen::Index v = 0; v < V; ++v)
+        if (remap[static_cast<std::size_t>(v)] >= 0) out.vertices.row(remap[static_cast<std::size_t>(v)]) = mesh.vertices.row(v);
+    std::vector<Eigen::Index> kept;
+    for (Eigen::Index f = 0; f < F; ++f)
+        if (remap[static_cast<std::size_t>(mesh.faces(f, 0))] >= 0) kept.push_back(f);
+    out.faces.resize(static_cast<Eigen::Index>(kept.size()), 3);
+    for (std::size_t i = 0; i < kept.size(); ++i)
+        for (int k = 0; k < 3; ++k)
+            out.faces(static_cast<Eigen::Index>(i), k) = remap[static_cast<std::size_t>(mesh.faces(kept[i], k))];
+    return out;
+}
+
 Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOptions& options, FairStats* stats) {
     PCP_CHECK(options.support_k > 0 && std::isfinite(options.support_k), "fairing: support_k must be > 0, got " << options.support_k);
     PCP_CHECK(options.guard >= 0 && std::isfinite(options.guard), "fairing: guard must be >= 0, got " << options.guard);

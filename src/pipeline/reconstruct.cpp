@@ -422,6 +422,10 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
             },
             options.sheet_gap, &r.sheet_gap);
     }
+    // The support filter's size rule again on the final geometry: the fit and the smoothing shrink a
+    // lone sample's octahedron beside the data to a point (remove_small_components).
+    if (options.surface_fit.enabled)
+        unit_mesh = remove_small_components(unit_mesh, options.surface_fit.min_extent_k * r.surface_fit.scale, &r.collapsed_removed);
     // Scenes: open where the data ends (ReconstructOptions::scene).
     if (options.scene.enabled) {
         unit_mesh = trim_unsupported_faces(unit_mesh, cloud.tree(), options.scene.support_k * sampling_scale(cloud.tree()),

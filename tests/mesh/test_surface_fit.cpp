@@ -7,7 +7,8 @@
 // Tests for pcp/mesh/surface_fit.hpp: a component with no data near it is removed and the rest kept
 // intact; so is a supported one smaller than the sampling scale (never the largest); a rippled sphere is brought onto its points; the two sides of a thin slab stay apart;
 // on a noisy plate the far side's points are left out of a side's fit (not on a bar as thick as its noise);
-// topology is unchanged; disabled is the identity; bad options throw. The recentring brings a
+// topology is unchanged; disabled is the identity; bad options throw. A component the stages after
+// the fit shrank below the size rule is removed last (the largest never). The recentring brings a
 // surface lying inside noisy points (a sphere, both sides of a thin slab) onto their middle and
 // leaves a clean one where it is. The fairing smooths a crumpled cap with no points under it and
 // brings it nearer the sphere, leaves supported vertices and a patch touching no data alone.
@@ -379,6 +380,49 @@ TEST_CASE("offset along normals: a plate thinner than a cell is kept whole by ex
     pcp::Mesh broken = lifted;
     broken.faces(0, 0) = static_cast<std::int32_t>(broken.vertices.rows());
     CHECK_THROWS_AS(pcp::offset_along_normals(broken, -d), pcp::Error);
+}
+
+TEST_CASE("remove small components: a component shrunk to a point goes, one above the limit stays, the largest always",
+          "[surface_fit]") {
+    const pcp::Mesh sphere = mesh_of(sphere_sdf({0, 0, 0}, 0.3), 32);
+    const Eigen::Index V = sphere.vertices.rows(), F = sphere.faces.rows();
+    // Two octahedra beside the sphere: one collapsed to (almost) a point, as the fit leaves a lone
+    // sample's octahedron, one of bounding-box diagonal 0.035.
+    const auto with_octahedra = [&](double r_small, double r_large) {
+        pcp::Mesh m = sphere;
+        m.vertices.conservativeResize(V + 12, 3);
+        m.faces.conservativeResize(F + 16, 3);
+        const double offsets[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+        const int tris[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+        const Eigen::RowVector3d centres[2] = {{0.31, 0, 0}, {0, 0.33, 0}};
+        const double radii[2] = {r_small, r_large};
+        for (int o = 0; o < 2; ++o) {
+            for (int k = 0; k < 6; ++k)
+                m.vertices.row(V + 6 * o + k) = centres[o] + radii[o] * Eigen::RowVector3d(offsets[k][0], offsets[k][1], offsets[k][2]);
+            for (int k = 0; k < 8; ++k)
+                for (int j = 0; j < 3; ++j) m.faces(F + 8 * o + k, j) = static_cast<int>(V + 6 * o) + tris[k][j];
+        }
+        return m;
+    };
+    const pcp::Mesh m = with_octahedra(1e-17, 0.01);
+    std::int64_t removed = -1;
+    const pcp::Mesh out = pcp::remove_small_components(m, 0.01, &removed);
+    CHECK(removed == 1);
+    CHECK(out.faces.rows() == F + 8);
+    CHECK(out.vertices.rows() == V + 6);
+    CHECK(pcp::mesh_topology(out).unused_vertices == 0);
+    CHECK(pcp::is_closed_and_oriented(out));
+    CHECK(out.vertices.row(V).isApprox(Eigen::RowVector3d(0.01, 0.33, 0)));  // the larger octahedron kept, in order
+    // A limit above both removes both; zero removes none; the largest stays whatever the limit.
+    CHECK(pcp::remove_small_components(m, 0.04, &removed).faces.rows() == F);
+    CHECK(removed == 2);
+    CHECK(pcp::remove_small_components(m, 0.0, &removed).faces.rows() == F + 16);
+    CHECK(removed == 0);
+    CHECK(pcp::remove_small_components(m, 100.0, &removed).faces.rows() == F);
+    CHECK_THROWS_WITH(pcp::remove_small_components(m, -1.0), Catch::Contains("min_diagonal"));
+    pcp::Mesh bad = m;
+    bad.faces(0, 0) = static_cast<int>(m.vertices.rows());
+    CHECK_THROWS_WITH(pcp::remove_small_components(bad, 0.01), Catch::Contains("out of range"));
 }
 
 TEST_CASE("trim unsupported faces: faces with no input point near their centroid go, the rest stays, vertices compacted",
