@@ -113,6 +113,8 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
     PCP_CHECK(options.relax >= 0 && options.relax <= 1, "surface fit: relax must be in [0, 1]");
     PCP_CHECK(options.noise_spread >= 0 && std::isfinite(options.noise_spread) && options.far_side_k >= 0 && std::isfinite(options.far_side_k),
               "surface fit: noise_spread and far_side_k must be finite and >= 0");
+    PCP_CHECK(options.far_side_clean_cos >= -1 && options.far_side_clean_cos <= 0, "surface fit: far_side_clean_cos must be in [-1, 0], got " << options.far_side_clean_cos);
+    PCP_CHECK(options.far_side_clean_gap_k >= 0 && std::isfinite(options.far_side_clean_gap_k), "surface fit: far_side_clean_gap_k must be finite and >= 0, got " << options.far_side_clean_gap_k);
     PCP_CHECK(cloud.size() >= 2, "surface fit: the cloud needs at least two points");
     const Eigen::Index V0 = unit_mesh.vertices.rows();
     if (unit_mesh.faces.rows() > 0)
@@ -230,9 +232,10 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
     const PointsF& pts = cloud.points();
     NeighborIndices idx;
     NeighborDistances dist;
-    // The far-side cut (SurfaceFitOptions::noise_spread): off without a spread.
-    const bool cut_far_side = options.noise_spread > 0;
-    const double far_gap = options.far_side_k * options.noise_spread;
+    // The far-side cut (SurfaceFitOptions::noise_spread, far_side_clean): on clean data at no gap.
+    const bool cut_far_side = options.noise_spread > 0 || options.far_side_clean;
+    const double far_gap = options.noise_spread > 0 ? options.far_side_k * options.noise_spread : options.far_side_clean_gap_k * st.scale;
+    const double far_cos = options.noise_spread > 0 ? 0.0 : options.far_side_clean_cos;
     std::vector<double> to_surface;  // per input point: its signed distance to the mesh (negative behind its nearest face)
     for (int it = 0; it < options.iterations; ++it) {
         const bool surface_offsets = it >= options.iterations - options.surface_rounds;
@@ -277,7 +280,7 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
                 for (int j = 0; j < K; ++j) {
                     if (cut_far_side) {  // a point of the far side of a thin part
                         const Eigen::Index u = owner(idx(v, j));
-                        if (normals.row(u).dot(n) < 0 && (mesh.vertices.row(v) - mesh.vertices.row(u)).dot(n) > far_gap) continue;
+                        if (normals.row(u).dot(n) < far_cos && (mesh.vertices.row(v) - mesh.vertices.row(u)).dot(n) > far_gap) continue;
                     }
                     const Eigen::RowVector3d p = pts.row(idx(v, j)).cast<double>();
                     offsets[kept] = surface_offsets ? to_surface[static_cast<std::size_t>(idx(v, j))] : (p - mesh.vertices.row(v)).dot(n);

@@ -279,6 +279,7 @@ TEST_CASE("surface fit: the far side of a noisy plate does not pull a side inwar
     const pcp::KdTree tree(noisy_plate_points(h, sigma, 5));
     pcp::SurfaceFitOptions o;
     o.neighbors = o.noisy_neighbors;
+    o.far_side_clean = false;  // no cut without a spread
     const pcp::Mesh pulled = pcp::fit_surface_to_points(mesh, tree, o);
     o.noise_spread = sigma;
     const pcp::Mesh kept = pcp::fit_surface_to_points(mesh, tree, o);
@@ -293,11 +294,54 @@ TEST_CASE("surface fit: the far side of a noisy plate does not pull a side inwar
     const pcp::KdTree bar_tree(noisy_plate_points(hb, sigma, 6));
     pcp::SurfaceFitOptions ob;
     ob.neighbors = ob.noisy_neighbors;
+    ob.far_side_clean = false;
     const double plain = mean_broad_face_z(pcp::fit_surface_to_points(bar, bar_tree, ob));
     ob.noise_spread = sigma;
     const double same = mean_broad_face_z(pcp::fit_surface_to_points(bar, bar_tree, ob));
     INFO("bar: mean |z| " << plain << " without the cut, " << same << " with it");
     CHECK(std::abs(same - plain) < 2e-5);
+}
+
+TEST_CASE("surface fit: a clean tube as thin as its sampling stays round, its far side left out", "[surface_fit][heavy]") {
+    // A rod of radius 0.005 along x, its surface sampled in rings 0.007 apart, 5 points a ring
+    // (a statue's tail: the other side within the fit's 16 neighbours), the mesh of its SDF.
+    const double r = 0.005;
+    const ScalarSdf rod = [&](const Eigen::Vector3d& p) {
+        const double x = std::max(std::abs(p.x()) - 0.25, 0.0);
+        return std::sqrt(x * x + p.y() * p.y() + p.z() * p.z()) - r;
+    };
+    const pcp::Mesh mesh = mesh_of(rod, 240);
+    std::vector<Eigen::Vector3f> ring_points;
+    for (int i = 0; i <= 72; ++i)
+        for (int k = 0; k < 5; ++k) {
+            const double a = 2 * M_PI * (k + 0.5 * (i % 2)) / 5;
+            ring_points.emplace_back(float(-0.252 + 0.007 * i), float(r * std::cos(a)), float(r * std::sin(a)));
+        }
+    pcp::PointsF pts(static_cast<Eigen::Index>(ring_points.size()), 3);
+    for (std::size_t i = 0; i < ring_points.size(); ++i) pts.row(static_cast<Eigen::Index>(i)) = ring_points[i].transpose();
+    const pcp::KdTree tree(pts);
+    // The spread of the middle part's distances to the axis about r.
+    const auto radial_error = [&](const pcp::Mesh& m) {
+        double s = 0;
+        int c = 0;
+        for (Eigen::Index v = 0; v < m.vertices.rows(); ++v) {
+            const Eigen::RowVector3d p = m.vertices.row(v);
+            if (std::abs(p.x()) > 0.2) continue;
+            const double e = std::hypot(p.y(), p.z()) - r;
+            s += e * e;
+            ++c;
+        }
+        return std::sqrt(s / std::max(c, 1));
+    };
+    pcp::SurfaceFitOptions o;
+    const pcp::Mesh kept = pcp::fit_surface_to_points(mesh, tree, o);
+    o.far_side_clean = false;
+    const pcp::Mesh crumpled = pcp::fit_surface_to_points(mesh, tree, o);
+    INFO("rms radial error: extracted " << radial_error(mesh) << ", fitted " << radial_error(kept) << ", fitted with the far side "
+                                        << radial_error(crumpled) << " (radius " << r << ")");
+    CHECK(radial_error(kept) < 0.15 * r);
+    CHECK(radial_error(crumpled) > 1.5 * radial_error(kept));
+    CHECK(pcp::mesh_topology(kept).euler() == pcp::mesh_topology(mesh).euler());
 }
 
 TEST_CASE("surface fit: disabled is the identity, bad options throw", "[surface_fit]") {
@@ -320,6 +364,12 @@ TEST_CASE("surface fit: disabled is the identity, bad options throw", "[surface_
     bad = {};
     bad.noise_spread = -0.01;
     CHECK_THROWS_WITH(pcp::fit_surface_to_points(mesh, tree, bad), Catch::Contains("noise_spread"));
+    bad = {};
+    bad.far_side_clean_cos = 0.5;
+    CHECK_THROWS_WITH(pcp::fit_surface_to_points(mesh, tree, bad), Catch::Contains("far_side_clean_cos"));
+    bad = {};
+    bad.far_side_clean_gap_k = -1;
+    CHECK_THROWS_WITH(pcp::fit_surface_to_points(mesh, tree, bad), Catch::Contains("far_side_clean_gap_k"));
     bad = {};
     bad.far_side_k = std::numeric_limits<double>::quiet_NaN();
     CHECK_THROWS_WITH(pcp::fit_surface_to_points(mesh, tree, bad), Catch::Contains("far_side_k"));

@@ -69,7 +69,8 @@ struct SurfaceFitOptions {
     /// the surface") L2-CD lower on 11 of 13 with NC unchanged; two such rounds cost NC.
     int surface_rounds = 1;
     bool shrink = true;           ///< scale each move m by max(0, 1 - se^2 / m^2), se the standard error of the mean offset
-    /// The far side of a thin part left out (not in the paper): with noise_spread > 0, every round
+    /// The far side of a thin part left out (not in the paper): with noise_spread > 0 (or 0 and
+    /// far_side_clean), every round
     /// assigns each input point to its nearest mesh vertex, and a vertex's mean shift skips the
     /// neighbours assigned to a vertex whose normal faces the other way and that lies more than
     /// far_side_k x noise_spread behind it along its normal. Within the noise the two sides' points
@@ -79,7 +80,22 @@ struct SurfaceFitOptions {
     /// pcp::reconstruct passes the spread the recentring measured (RecentreStats::spread; noisy
     /// clouds); 0 = off. Measured (docs/BENCHMARKS.md, "The fit without the far side of a thin
     /// part"): k = 3 against no cut and against k = 0.
-    double noise_spread = 0;      ///< the noise's spread, in the cloud's units (>= 0; 0: off)
+    double noise_spread = 0;      ///< the noise's spread, in the cloud's units (>= 0; 0: clean data, see far_side_clean)
+    /// The far side left out on clean data too (noise_spread 0): every point nearest to a vertex
+    /// that faces away (normals' cosine below far_side_clean_cos) and lies more than
+    /// far_side_clean_gap_k x the sampling scale behind the vertex. A part as thin as the sampling
+    /// (a statue's tail or ear 1-2 spacings across) has its far side within the fit's window and
+    /// its mode between the sides: the mean shift crumpled such a tail into a twisted ribbon and
+    /// roughened the ears (docs/BENCHMARKS.md, "The far side left out on clean clouds"). false: no
+    /// cut without a spread (the fit before).
+    bool far_side_clean = true;
+    /// The clean cut's cosine ([-1, 0]): only sides facing nearly opposite. With 0 (the noisy
+    /// cut's) the faces meeting at fandisk's sharp edges cut each other's points: NC -0.002..-0.004.
+    double far_side_clean_cos = -0.8;
+    /// The clean cut's gap (>= 0, sampling scales). With none, the two sides of a sheet sampled as
+    /// one layer, which the move back lays on the same points, split those points between them
+    /// (the scratch shell chair's NC -0.002); 1 scale leaves a tail one spacing thick crumpled.
+    double far_side_clean_gap_k = 0.25;
     double far_side_k = 3.0;      ///< (>= 0)
 };
 
