@@ -719,7 +719,7 @@ int main(int argc, char** argv) {
           << " components (no input points near them" +
                  (report.surface_fit.removed_small > 0 ? ", or " + std::to_string(report.surface_fit.removed_small) + " smaller than the sampling scale" : std::string()) +
                  (report.surface_fit.removed_blisters > 0 ? ", or " + std::to_string(report.surface_fit.removed_blisters) + " lying on the largest within a sampling scale" : std::string()) +
-                 ")" << (report.collapsed_removed > 0 ? ", " + std::to_string(report.collapsed_removed) + " shrunk below it by the fit removed last" : std::string())
+                 ")" << (report.collapsed_removed > 0 ? ", and last " + std::to_string(report.collapsed_removed) + " that the fit shrank below the sampling scale" : std::string())
           << (report.smoothed ? ", smoothed" : "")
           << (report.fairing.failed ? std::string(", fairing skipped (its sparse solve failed)")
               : report.fairing.free_vertices > 0
