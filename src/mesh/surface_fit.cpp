@@ -49,6 +49,70 @@ std::int32_t find_root(std::vector<std::int32_t>& parent, std::int32_t a) {
     return a;
 }
 
+/// The connected components of a mesh (vertices joined by faces): each vertex's root (the
+/// component's smallest vertex; -1 where no face uses it) and, at each root, the component's vertex
+/// count and bounding box; `largest`, the root with the most vertices (the first of equals).
+struct Components {
+    std::vector<std::int32_t> root;
+    std::vector<std::int64_t> count;
+    std::vector<Eigen::Vector3d> lo, hi;
+    Eigen::Index largest = -1;
+
+    explicit Components(const Mesh& mesh) {
+        const Eigen::Index V = mesh.vertices.rows();
+        std::vector<std::int32_t> parent(static_cast<std::size_t>(V));
+        std::iota(parent.begin(), parent.end(), 0);
+        for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+            for (int k = 1; k < 3; ++k) {
+                const std::int32_t a = find_root(parent, mesh.faces(f, 0)), b = find_root(parent, mesh.faces(f, k));
+                if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
+            }
+        root.assign(static_cast<std::size_t>(V), -1);
+        for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+            for (int k = 0; k < 3; ++k) root[static_cast<std::size_t>(mesh.faces(f, k))] = 0;
+        const double inf = std::numeric_limits<double>::infinity();
+        count.assign(static_cast<std::size_t>(V), 0);
+        lo.assign(static_cast<std::size_t>(V), Eigen::Vector3d::Constant(inf));
+        hi.assign(static_cast<std::size_t>(V), Eigen::Vector3d::Constant(-inf));
+        for (Eigen::Index v = 0; v < V; ++v) {
+            if (root[static_cast<std::size_t>(v)] < 0) continue;
+            const std::int32_t r = find_root(parent, static_cast<std::int32_t>(v));
+            root[static_cast<std::size_t>(v)] = r;
+            ++count[static_cast<std::size_t>(r)];
+            lo[static_cast<std::size_t>(r)] = lo[static_cast<std::size_t>(r)].cwiseMin(mesh.vertices.row(v).transpose());
+            hi[static_cast<std::size_t>(r)] = hi[static_cast<std::size_t>(r)].cwiseMax(mesh.vertices.row(v).transpose());
+        }
+        for (Eigen::Index v = 0; v < V; ++v)
+            if (count[static_cast<std::size_t>(v)] > 0 && (largest < 0 || count[static_cast<std::size_t>(v)] > count[static_cast<std::size_t>(largest)]))
+                largest = v;
+    }
+    double diagonal(Eigen::Index r) const { return (hi[static_cast<std::size_t>(r)] - lo[static_cast<std::size_t>(r)]).norm(); }
+};
+
+/// `mesh` with only the components whose root `keep_root` marks, unused vertices dropped (vertices
+/// and faces in their order). `removed_faces` (optional) receives the faces removed.
+Mesh keep_components(const Mesh& mesh, const Components& c, const std::vector<char>& keep_root, std::int64_t* removed_faces = nullptr) {
+    const Eigen::Index V = mesh.vertices.rows();
+    std::vector<std::int32_t> remap(static_cast<std::size_t>(V), -1);
+    std::int32_t nv = 0;
+    for (Eigen::Index v = 0; v < V; ++v) {
+        const std::int32_t r = c.root[static_cast<std::size_t>(v)];
+        if (r >= 0 && keep_root[static_cast<std::size_t>(r)]) remap[static_cast<std::size_t>(v)] = nv++;
+    }
+    Mesh out;
+    out.vertices.resize(nv, 3);
+    for (Eigen::Index v = 0; v < V; ++v)
+        if (remap[static_cast<std::size_t>(v)] >= 0) out.vertices.row(remap[static_cast<std::size_t>(v)]) = mesh.vertices.row(v);
+    std::vector<Eigen::Index> kept;
+    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+        if (remap[static_cast<std::size_t>(mesh.faces(f, 0))] >= 0) kept.push_back(f);
+    if (removed_faces) *removed_faces = mesh.faces.rows() - static_cast<std::int64_t>(kept.size());
+    out.faces.resize(static_cast<Eigen::Index>(kept.size()), 3);
+    for (std::size_t i = 0; i < kept.size(); ++i)
+        for (int k = 0; k < 3; ++k) out.faces(static_cast<Eigen::Index>(i), k) = remap[static_cast<std::size_t>(mesh.faces(kept[i], k))];
+    return out;
+}
+
 /// Area-weighted vertex normals, averaged once over the one-ring, unit length (zero where undefined).
 Points vertex_normals(const Mesh& mesh, const OneRing& ring) {
     const Eigen::Index V = mesh.vertices.rows();
@@ -131,48 +195,23 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
     // 1. Support filter over connected components (vertices joined by faces).
     Eigen::VectorXf to_data;
     cloud.nearest(unit_mesh.vertices.cast<float>(), &to_data);
-    std::vector<std::int32_t> parent(static_cast<std::size_t>(V0));
-    std::iota(parent.begin(), parent.end(), 0);
-    for (Eigen::Index f = 0; f < unit_mesh.faces.rows(); ++f)
-        for (int k = 1; k < 3; ++k) {
-            const std::int32_t a = find_root(parent, unit_mesh.faces(f, 0)), b = find_root(parent, unit_mesh.faces(f, k));
-            if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
-        }
-    // Per component (at its root): vertices, supported vertices and bounding box.
-    const double inf = std::numeric_limits<double>::infinity();
-    std::vector<std::int64_t> total(static_cast<std::size_t>(V0), 0), supported(static_cast<std::size_t>(V0), 0);
-    std::vector<Eigen::Vector3d> box_lo(static_cast<std::size_t>(V0), Eigen::Vector3d::Constant(inf)),
-        box_hi(static_cast<std::size_t>(V0), Eigen::Vector3d::Constant(-inf));
-    std::vector<bool> used(static_cast<std::size_t>(V0), false);
-    for (Eigen::Index f = 0; f < unit_mesh.faces.rows(); ++f)
-        for (int k = 0; k < 3; ++k) used[static_cast<std::size_t>(unit_mesh.faces(f, k))] = true;
-    for (Eigen::Index v = 0; v < V0; ++v) {
-        if (!used[static_cast<std::size_t>(v)]) continue;
-        const auto r = static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)));
-        ++total[r];
-        if (to_data(v) <= support) ++supported[r];
-        const Eigen::Vector3d p = unit_mesh.vertices.row(v).transpose();
-        box_lo[r] = box_lo[r].cwiseMin(p);
-        box_hi[r] = box_hi[r].cwiseMax(p);
-    }
-    // The largest component (by vertices) is never removed for its size.
-    Eigen::Index largest = -1;
+    const Components comp(unit_mesh);
+    const Eigen::Index largest = comp.largest;  // never removed for its size
+    std::vector<std::int64_t> supported(static_cast<std::size_t>(V0), 0);  // per root
     for (Eigen::Index v = 0; v < V0; ++v)
-        if (total[static_cast<std::size_t>(v)] > 0 && (largest < 0 || total[static_cast<std::size_t>(v)] > total[static_cast<std::size_t>(largest)]))
-            largest = v;
-    std::vector<bool> keep_root(static_cast<std::size_t>(V0), false);
+        if (comp.root[static_cast<std::size_t>(v)] >= 0 && to_data(v) <= support) ++supported[static_cast<std::size_t>(comp.root[static_cast<std::size_t>(v)])];
+    std::vector<char> keep_root(static_cast<std::size_t>(V0), 0);
     bool others = false;  // a component other than the largest is kept
     for (Eigen::Index v = 0; v < V0; ++v) {
-        if (total[static_cast<std::size_t>(v)] == 0) continue;
+        const auto vs = static_cast<std::size_t>(v);
+        if (comp.count[vs] == 0) continue;
         ++st.components;
-        bool keep = static_cast<double>(supported[static_cast<std::size_t>(v)]) >=
-                    options.min_supported * static_cast<double>(total[static_cast<std::size_t>(v)]);
-        if (keep && v != largest &&
-            (box_hi[static_cast<std::size_t>(v)] - box_lo[static_cast<std::size_t>(v)]).norm() < options.min_extent_k * st.scale) {
+        bool keep = static_cast<double>(supported[vs]) >= options.min_supported * static_cast<double>(comp.count[vs]);
+        if (keep && v != largest && comp.diagonal(v) < options.min_extent_k * st.scale) {
             keep = false;
             ++st.removed_small;
         }
-        keep_root[static_cast<std::size_t>(v)] = keep;
+        keep_root[vs] = keep;
         if (!keep) ++st.removed_components;
         others = others || (keep && v != largest);
     }
@@ -183,43 +222,28 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
         std::vector<Eigen::Index> main_vertices;
         std::vector<bool> blister(static_cast<std::size_t>(V0), true);
         for (Eigen::Index v = 0; v < V0; ++v)
-            if (used[static_cast<std::size_t>(v)] && find_root(parent, static_cast<std::int32_t>(v)) == largest) main_vertices.push_back(v);
+            if (comp.root[static_cast<std::size_t>(v)] == largest) main_vertices.push_back(v);
         PointsF main_points(static_cast<Eigen::Index>(main_vertices.size()), 3);
         for (std::size_t i = 0; i < main_vertices.size(); ++i)
             main_points.row(Eigen::Index(i)) = unit_mesh.vertices.row(main_vertices[i]).cast<float>();
         const KdTree main_tree(main_points);
         for (Eigen::Index v = 0; v < V0; ++v) {
-            if (!used[static_cast<std::size_t>(v)]) continue;
-            const auto r = static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)));
+            const std::int32_t ri = comp.root[static_cast<std::size_t>(v)];
+            if (ri < 0) continue;
+            const auto r = static_cast<std::size_t>(ri);
             if (Eigen::Index(r) == largest || !keep_root[r] || !blister[r]) continue;
             float d = 0;
             main_tree.nearest_point(unit_mesh.vertices.row(v).transpose().cast<float>(), &d);
             if (double(d) > options.blister_k * st.scale) blister[r] = false;
         }
         for (Eigen::Index v = 0; v < V0; ++v)
-            if (total[static_cast<std::size_t>(v)] > 0 && v != largest && keep_root[static_cast<std::size_t>(v)] && blister[static_cast<std::size_t>(v)]) {
-                keep_root[static_cast<std::size_t>(v)] = false;
+            if (comp.count[static_cast<std::size_t>(v)] > 0 && v != largest && keep_root[static_cast<std::size_t>(v)] && blister[static_cast<std::size_t>(v)]) {
+                keep_root[static_cast<std::size_t>(v)] = 0;
                 ++st.removed_components;
                 ++st.removed_blisters;
             }
     }
-    Mesh mesh;
-    std::vector<std::int32_t> remap(static_cast<std::size_t>(V0), -1);
-    std::int32_t nv = 0;
-    for (Eigen::Index v = 0; v < V0; ++v)
-        if (used[static_cast<std::size_t>(v)] && keep_root[static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)))])
-            remap[static_cast<std::size_t>(v)] = nv++;
-    mesh.vertices.resize(nv, 3);
-    for (Eigen::Index v = 0; v < V0; ++v)
-        if (remap[static_cast<std::size_t>(v)] >= 0) mesh.vertices.row(remap[static_cast<std::size_t>(v)]) = unit_mesh.vertices.row(v);
-    std::vector<Eigen::Index> kept_faces;
-    for (Eigen::Index f = 0; f < unit_mesh.faces.rows(); ++f)
-        if (remap[static_cast<std::size_t>(unit_mesh.faces(f, 0))] >= 0) kept_faces.push_back(f);
-    st.removed_faces = unit_mesh.faces.rows() - static_cast<std::int64_t>(kept_faces.size());
-    mesh.faces.resize(static_cast<Eigen::Index>(kept_faces.size()), 3);
-    for (std::size_t i = 0; i < kept_faces.size(); ++i)
-        for (int k = 0; k < 3; ++k)
-            mesh.faces(static_cast<Eigen::Index>(i), k) = remap[static_cast<std::size_t>(unit_mesh.faces(kept_faces[i], k))];
+    Mesh mesh = keep_components(unit_mesh, comp, keep_root, &st.removed_faces);
     if (mesh.faces.rows() == 0) {
         if (stats) *stats = st;
         return mesh;
@@ -476,59 +500,16 @@ Mesh remove_small_components(const Mesh& mesh, double min_diagonal, std::int64_t
     PCP_CHECK(min_diagonal >= 0 && std::isfinite(min_diagonal), "remove_small_components: min_diagonal must be finite and >= 0, got " << min_diagonal);
     const Eigen::Index V = mesh.vertices.rows(), F = mesh.faces.rows();
     PCP_CHECK(F == 0 || (mesh.faces.minCoeff() >= 0 && mesh.faces.maxCoeff() < V), "remove_small_components: a face index is out of range");
-    if (removed) *removed = 0;
-    std::vector<std::int32_t> parent(static_cast<std::size_t>(V));
-    std::iota(parent.begin(), parent.end(), 0);
-    for (Eigen::Index f = 0; f < F; ++f)
-        for (int k = 1; k < 3; ++k) {
-            const std::int32_t a = find_root(parent, mesh.faces(f, 0)), b = find_root(parent, mesh.faces(f, k));
-            if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
-        }
-    std::vector<char> used(static_cast<std::size_t>(V), 0);
-    for (Eigen::Index f = 0; f < F; ++f)
-        for (int k = 0; k < 3; ++k) used[static_cast<std::size_t>(mesh.faces(f, k))] = 1;
-    const double inf = std::numeric_limits<double>::infinity();
-    std::vector<std::int64_t> count(static_cast<std::size_t>(V), 0);
-    std::vector<Eigen::Vector3d> lo(static_cast<std::size_t>(V), Eigen::Vector3d::Constant(inf)),
-        hi(static_cast<std::size_t>(V), Eigen::Vector3d::Constant(-inf));
-    for (Eigen::Index v = 0; v < V; ++v) {
-        if (!used[static_cast<std::size_t>(v)]) continue;
-        const auto r = static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)));
-        ++count[r];
-        lo[r] = lo[r].cwiseMin(mesh.vertices.row(v).transpose());
-        hi[r] = hi[r].cwiseMax(mesh.vertices.row(v).transpose());
-    }
-    Eigen::Index largest = -1;
-    for (Eigen::Index v = 0; v < V; ++v)
-        if (count[static_cast<std::size_t>(v)] > 0 && (largest < 0 || count[static_cast<std::size_t>(v)] > count[static_cast<std::size_t>(largest)]))
-            largest = v;
-    std::vector<char> drop(static_cast<std::size_t>(V), 0);
+    const Components comp(mesh);
+    std::vector<char> keep_root(static_cast<std::size_t>(V), 1);
     std::int64_t n_removed = 0;
-    for (Eigen::Index v = 0; v < V; ++v) {
-        const auto vs = static_cast<std::size_t>(v);
-        if (count[vs] == 0 || v == largest || !((hi[vs] - lo[vs]).norm() < min_diagonal)) continue;
-        drop[vs] = 1;
-        ++n_removed;
-    }
+    for (Eigen::Index v = 0; v < V; ++v)
+        if (comp.count[static_cast<std::size_t>(v)] > 0 && v != comp.largest && comp.diagonal(v) < min_diagonal) {
+            keep_root[static_cast<std::size_t>(v)] = 0;
+            ++n_removed;
+        }
     if (removed) *removed = n_removed;
-    if (n_removed == 0) return mesh;
-    std::vector<std::int32_t> remap(static_cast<std::size_t>(V), -1);
-    std::int32_t nv = 0;
-    for (Eigen::Index v = 0; v < V; ++v)
-        if (used[static_cast<std::size_t>(v)] && !drop[static_cast<std::size_t>(find_root(parent, static_cast<std::int32_t>(v)))])
-            remap[static_cast<std::size_t>(v)] = nv++;
-    Mesh out;
-    out.vertices.resize(nv, 3);
-    for (Eigen::Index v = 0; v < V; ++v)
-        if (remap[static_cast<std::size_t>(v)] >= 0) out.vertices.row(remap[static_cast<std::size_t>(v)]) = mesh.vertices.row(v);
-    std::vector<Eigen::Index> kept;
-    for (Eigen::Index f = 0; f < F; ++f)
-        if (remap[static_cast<std::size_t>(mesh.faces(f, 0))] >= 0) kept.push_back(f);
-    out.faces.resize(static_cast<Eigen::Index>(kept.size()), 3);
-    for (std::size_t i = 0; i < kept.size(); ++i)
-        for (int k = 0; k < 3; ++k)
-            out.faces(static_cast<Eigen::Index>(i), k) = remap[static_cast<std::size_t>(mesh.faces(kept[i], k))];
-    return out;
+    return n_removed == 0 ? mesh : keep_components(mesh, comp, keep_root);
 }
 
 Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOptions& options, FairStats* stats) {

@@ -10,6 +10,7 @@
 #include <limits>
 
 namespace pcp {
+
 ThinLevel::ThinLevel(const KdTree& cloud, float offset, float near_radius) : cloud_(cloud), offset_(offset), near_(near_radius) {
     PCP_CHECK(std::isfinite(offset) && offset >= 0, "thin level: offset must be >= 0, got " << offset);
     PCP_CHECK(std::isfinite(near_radius) && near_radius >= 0, "thin level: near_radius must be >= 0, got " << near_radius);
@@ -62,9 +63,9 @@ void ThinLevel::shift_samples(SdfGrid& grid, float reach, const std::vector<floa
     });
 }
 
-void ThinLevel::shift_like_raise(SdfGrid& grid, float reach) const {
+void ThinLevel::shift_like_raise(SdfGrid& grid) const {
     if (levels_.empty()) return;
-    shift_samples(grid, reach, levels_);
+    shift_samples(grid, reach_, levels_);
 }
 
 std::int64_t ThinLevel::raise_where_thin(SdfGrid& grid, float reach, int min_company, double min_share) {
@@ -109,7 +110,7 @@ std::int64_t ThinLevel::raise_where_thin(SdfGrid& grid, float reach, int min_com
         own.swap(kept);
         raised = left;
         // Sheets sampled as one layer are a sizeable part of a surface; a few patches on a solid are
-        // the field's, and raising them adds handles (the built-in shape: 16 points, genus 1 -> 6).
+        // the field's, and raising them adds handles (the built-in shape: 16 points, genus 1 -> 4).
         if (raised == 0 || static_cast<double>(raised) < min_share * static_cast<double>(n)) return 0;
     }
     // Spread to the neighbours (the largest among its k nearest: the sheet's points that the solid
@@ -132,6 +133,7 @@ std::int64_t ThinLevel::raise_where_thin(SdfGrid& grid, float reach, int min_com
         if (levels[static_cast<std::size_t>(i)] > offset_)
             for (int j = 0; j < k; ++j) near_raised_[static_cast<std::size_t>(idx(i, j))] = 1;
     levels_ = std::move(levels);
+    reach_ = reach;
     return raised;
 }
 

@@ -364,7 +364,7 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
                                                     options.thin_min_share);
         // The shell centring's copy from before the fill alike, or a raised sheet looks to it like a
         // hollow the fill closed.
-        if (before_fill) thin_level.shift_like_raise(*before_fill, reach);
+        if (before_fill) thin_level.shift_like_raise(*before_fill);
     }
     r.winding_corrected = winding.corrected();
     r.sdf_reused = memo ? memo->reused() : 0;

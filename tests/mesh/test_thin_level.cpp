@@ -49,12 +49,12 @@ TEST_CASE("thin level: a sheet with no inside is raised until the grid's samples
     pcp::SdfGrid grid = dense_grid(field, 32);
     CHECK(pcp::marching_cubes(grid).faces.rows() == 0);
     pcp::SdfGrid copy = grid;  // as the shell centring keeps one from before the fills
-    level.shift_like_raise(copy, static_cast<float>(cell));  // before the raise: nothing
+    level.shift_like_raise(copy);  // before the raise: nothing
     CHECK(copy.values == grid.values);
     const std::int64_t raised = level.raise_where_thin(grid, static_cast<float>(cell));
     CHECK(raised == cloud.size());
     CHECK(copy.values != grid.values);
-    level.shift_like_raise(copy, static_cast<float>(cell));  // after it: shifted alike
+    level.shift_like_raise(copy);  // after it: shifted alike
     CHECK(copy.values == grid.values);
     // The level on the sheet: the offset plus the field one cell away (0.0235, less the faded
     // offset there), which puts both lattice planes inside.
@@ -86,7 +86,7 @@ TEST_CASE("thin level: nothing is raised when fewer than min_share of the points
     CHECK(level.raise_where_thin(grid, static_cast<float>(cell), 3, 0.6) == 0);
     CHECK(grid.values == before.values);
     pcp::SdfGrid copy = before;
-    level.shift_like_raise(copy, static_cast<float>(cell));  // nothing raised: nothing shifted
+    level.shift_like_raise(copy);  // nothing raised: nothing shifted
     CHECK(copy.values == before.values);
     CHECK(level(Eigen::Vector3f(0.0f, 0.0f, float(z0))) == 0.002f);
     CHECK(level.raise_where_thin(grid, static_cast<float>(cell), 3, 0.4) == sheet.rows());

@@ -62,11 +62,10 @@ public:
     /// all points would be. Nothing happens when offset is 0.
     std::int64_t raise_where_thin(SdfGrid& grid, float reach, int min_company = 3, double min_share = 0.0);
 
-    /// Shifts another grid of the same lattice (`reach` as given to raise_where_thin) as
-    /// raise_where_thin shifted its own, by the levels it raised (nothing before it, or when it
-    /// raised nothing). pcp::reconstruct applies it to the grid the shell centring keeps from before
+    /// Shifts another grid of the same lattice as raise_where_thin shifted its own, by the levels
+    /// it raised and with its reach (nothing before it, or when it raised nothing). pcp::reconstruct applies it to the grid the shell centring keeps from before
     /// the cavity fill, which would otherwise take a raised sheet for a hollow the fill closed.
-    void shift_like_raise(SdfGrid& grid, float reach) const;
+    void shift_like_raise(SdfGrid& grid) const;
 
 private:
     float level_at(const Eigen::Vector3f& p, const std::vector<float>* levels) const;
@@ -75,6 +74,7 @@ private:
     const KdTree& cloud_;
     float offset_, near_;
     std::vector<float> levels_;  // per input point; empty: offset everywhere
+    float reach_ = 0;            // raise_where_thin's, once it raised
     std::vector<std::uint8_t> near_raised_;  // per input point: its level or a neighbour's raised
 };
 
