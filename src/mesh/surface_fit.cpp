@@ -256,10 +256,13 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
     const PointsF& pts = cloud.points();
     NeighborIndices idx;
     NeighborDistances dist;
-    // The far-side cut (SurfaceFitOptions::noise_spread, far_side_clean): on clean data at no gap.
-    const bool cut_far_side = options.noise_spread > 0 || options.far_side_clean;
-    const double far_gap = options.noise_spread > 0 ? options.far_side_k * options.noise_spread : options.far_side_clean_gap_k * st.scale;
-    const double far_cos = options.noise_spread > 0 ? 0.0 : options.far_side_clean_cos;
+    // The far-side cut (SurfaceFitOptions::noise_spread, far_side_clean): on noisy data any vertex
+    // facing the other way, far_side_k spreads behind; on clean data one facing nearly opposite,
+    // far_side_clean_gap_k sampling scales behind.
+    const bool noisy = options.noise_spread > 0;
+    const bool cut_far_side = noisy || options.far_side_clean;
+    const double far_gap = noisy ? options.far_side_k * options.noise_spread : options.far_side_clean_gap_k * st.scale;
+    const double far_cos = noisy ? 0.0 : options.far_side_clean_cos;
     std::vector<double> to_surface;  // per input point: its signed distance to the mesh (negative behind its nearest face)
     for (int it = 0; it < options.iterations; ++it) {
         const bool surface_offsets = it >= options.iterations - options.surface_rounds;
