@@ -5,8 +5,11 @@
 #include "pcp/core/rng.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
+#include <utility>
 
 #include <omp.h>
 
@@ -267,23 +270,142 @@ VisibilityLabels label_by_visibility(const KdTree& tree, const Aabb& box, const 
     return out;
 }
 
+namespace {
+
+/// One direction's bitmap: the plane across d (axes u, v), its pixels from `lo`, set where a disc
+/// of the dilated cloud meets them.
+struct LineBitmap {
+    Eigen::Vector3d u, v;
+    Eigen::Vector2d lo;
+    std::int64_t width = 0, height = 0;
+    std::vector<std::uint64_t> bits;
+
+    bool blocked(const Eigen::Vector3d& x, double pixel) const {
+        const double a = (u.dot(x) - lo.x()) / pixel, c = (v.dot(x) - lo.y()) / pixel;
+        if (!(a >= 0.0 && c >= 0.0 && a < double(width) && c < double(height))) return false;
+        const std::int64_t k = static_cast<std::int64_t>(c) * width + static_cast<std::int64_t>(a);
+        return (bits[static_cast<std::size_t>(k >> 6)] >> (k & 63)) & 1u;
+    }
+};
+
+/// The plane across direction d over `box`, wider on every side by a disc's stamp (DiscStamps::reach
+/// pixels) and a pixel, so that every stamp of a ball in the box lies in it; no bits yet.
+LineBitmap line_plane(const Eigen::Vector3d& d, const Aabb& box, double radius, double pixel) {
+    Eigen::Index least = 0;
+    d.cwiseAbs().minCoeff(&least);
+    LineBitmap b;
+    b.u = d.cross(Eigen::Vector3d::Unit(least)).normalized();
+    b.v = d.cross(b.u);
+    Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+    for (int c = 0; c < 8; ++c) {
+        const Eigen::Vector3d corner((c & 1) ? box.max.x() : box.min.x(), (c & 2) ? box.max.y() : box.min.y(),
+                                     (c & 4) ? box.max.z() : box.min.z());
+        const Eigen::Vector2d q(b.u.dot(corner), b.v.dot(corner));
+        lo = lo.cwiseMin(q);
+        hi = hi.cwiseMax(q);
+    }
+    const double margin = (std::ceil(radius / pixel) + 2) * pixel;
+    b.lo = lo.array() - margin;
+    b.width = static_cast<std::int64_t>(std::ceil((hi.x() - lo.x() + 2 * margin) / pixel));
+    b.height = static_cast<std::int64_t>(std::ceil((hi.y() - lo.y() + 2 * margin) / pixel));
+    return b;
+}
+
+/// The pixels a disc of radius r (in pixels) may meet, by where its centre lies in its pixel: the
+/// pixel is cut into kSub x kSub parts, and part (qa, qb) lists the offsets (di, dj) of the pixels
+/// within r of some point of that part (rectangle to rectangle distance), at most reach = ceil(r)
+/// + 1 away: a stamp then sets a few bits without a distance per pixel, at most a part's diagonal
+/// (1 / kSub of a pixel x sqrt 2) more than the disc.
+struct DiscStamps {
+    static constexpr int kSub = 8;
+    int reach = 0;
+    std::vector<std::vector<std::pair<int, int>>> offsets;
+
+    explicit DiscStamps(double r) : reach(static_cast<int>(std::ceil(r)) + 1), offsets(kSub * kSub) {
+        const auto gap = [](double a0, double a1, double b0, double b1) { return a1 < b0 ? b0 - a1 : (b1 < a0 ? a0 - b1 : 0.0); };
+        for (int qa = 0; qa < kSub; ++qa)
+            for (int qb = 0; qb < kSub; ++qb)
+                for (int dj = -reach; dj <= reach; ++dj)
+                    for (int di = -reach; di <= reach; ++di) {
+                        const double dx = gap(double(qa) / kSub, double(qa + 1) / kSub, double(di), double(di + 1));
+                        const double dy = gap(double(qb) / kSub, double(qb + 1) / kSub, double(dj), double(dj + 1));
+                        if (dx * dx + dy * dy <= r * r) offsets[static_cast<std::size_t>(qa * kSub + qb)].emplace_back(di, dj);
+                    }
+    }
+};
+
+/// Sets the pixels of `b` that the disc of each ball (centres `points`) may meet (DiscStamps). The
+/// plane's margin (line_plane) keeps every stamp inside the bitmap.
+void draw_discs(LineBitmap& b, const PointsF& points, const DiscStamps& stamps, double pixel) {
+    b.bits.assign(static_cast<std::size_t>((b.width * b.height + 63) / 64), 0);
+    constexpr int kParts = DiscStamps::kSub * DiscStamps::kSub;
+    // The stamps as offsets in the bitmap's row-major order, for this width.
+    std::array<std::vector<std::int64_t>, kParts> linear;
+    for (int q = 0; q < kParts; ++q)
+        for (const auto& [di, dj] : stamps.offsets[static_cast<std::size_t>(q)]) linear[static_cast<std::size_t>(q)].push_back(dj * b.width + di);
+    const Eigen::Vector3f u = (b.u / pixel).cast<float>(), v = (b.v / pixel).cast<float>();
+    const auto u0 = static_cast<float>(b.lo.x() / pixel), v0 = static_cast<float>(b.lo.y() / pixel);
+    for (Eigen::Index i = 0; i < points.rows(); ++i) {
+        const Eigen::Vector3f x = points.row(i).transpose();
+        const float a = u.dot(x) - u0, c = v.dot(x) - v0;
+        const float fa = std::floor(a), fc = std::floor(c);
+        const int qa = std::min(DiscStamps::kSub - 1, static_cast<int>((a - fa) * DiscStamps::kSub));
+        const int qc = std::min(DiscStamps::kSub - 1, static_cast<int>((c - fc) * DiscStamps::kSub));
+        const std::int64_t base = static_cast<std::int64_t>(fc) * b.width + static_cast<std::int64_t>(fa);
+        for (const std::int64_t off : linear[static_cast<std::size_t>(qa * DiscStamps::kSub + qc)]) {
+            const std::int64_t bit = base + off;
+            b.bits[static_cast<std::size_t>(bit >> 6)] |= std::uint64_t(1) << (bit & 63);
+        }
+    }
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3d> line_directions(int n) {
+    PCP_CHECK(n >= 1, "line directions: n must be >= 1, got " << n);
+    const double golden = kPi * (3.0 - std::sqrt(5.0));
+    std::vector<Eigen::Vector3d> d(static_cast<std::size_t>(n));
+    for (int t = 0; t < n; ++t) {
+        const double z = 1.0 - (t + 0.5) / n;
+        const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
+        d[static_cast<std::size_t>(t)] = Eigen::Vector3d(rho * std::cos(golden * t), rho * std::sin(golden * t), z);
+    }
+    return d;
+}
+
 struct ThroughLines::Impl {
     Occupancy occ;
     double radius;
-    std::vector<Eigen::Vector3d> dirs;
-    Impl(const PointsF& points, const Aabb& box, int resolution, double r, int rays, int factor)
-        : occ(points, box, resolution, r, factor), radius(r), dirs(fibonacci_sphere(rays)) {}
+    double pixel;
+    std::vector<LineBitmap> lines;
+    Impl(const PointsF& points, const Aabb& box, int resolution, double r, int directions, int factor)
+        : occ(points, box, resolution, r, factor), radius(r), pixel(occ.h) {
+        // The bitmaps within 64 MiB: pixels larger if need be (a line then counts as blocked
+        // farther from a disc).
+        const double budget_bits = 64.0 * 8 * 1024 * 1024;
+        const double worst = std::sqrt(3.0) * box.extent().maxCoeff() + 2 * (r + pixel);
+        while (double(directions) * (worst / pixel + 1) * (worst / pixel + 1) > budget_bits) pixel *= 1.25;
+        const std::vector<Eigen::Vector3d> dirs = line_directions(directions);
+        const DiscStamps stamps(r / pixel);
+        lines.resize(static_cast<std::size_t>(directions));
+#pragma omp parallel for schedule(dynamic, 1)
+        for (int t = 0; t < directions; ++t) {
+            LineBitmap& b = lines[static_cast<std::size_t>(t)];
+            b = line_plane(dirs[static_cast<std::size_t>(t)], box, r, pixel);
+            draw_discs(b, points, stamps, pixel);
+        }
+    }
 };
 
-ThroughLines::ThroughLines(const KdTree& tree, const Aabb& box, int occupancy_resolution, double dilation, int rays,
+ThroughLines::ThroughLines(const KdTree& tree, const Aabb& box, int occupancy_resolution, double dilation, int directions,
                            int clearance_factor) {
     PCP_CHECK(occupancy_resolution >= 8 && occupancy_resolution <= 1024,
               "through lines: occupancy_resolution must be in 8..1024, got " << occupancy_resolution);
     PCP_CHECK(std::isfinite(dilation) && dilation > 0.0, "through lines: dilation must be > 0");
-    PCP_CHECK(rays >= 1 && rays <= 1024, "through lines: rays must be in 1..1024, got " << rays);
+    PCP_CHECK(directions >= 1 && directions <= 4096, "through lines: directions must be in 1..4096, got " << directions);
     PCP_CHECK(clearance_factor >= 1 && clearance_factor <= 4, "through lines: clearance_factor must be in 1..4, got " << clearance_factor);
     const double scale = checked_scale(tree, box, "through lines");
-    impl_ = std::make_unique<Impl>(tree.points(), box, occupancy_resolution, dilation * scale, rays, clearance_factor);
+    impl_ = std::make_unique<Impl>(tree.points(), box, occupancy_resolution, dilation * scale, directions, clearance_factor);
 }
 
 ThroughLines::~ThroughLines() = default;
@@ -305,14 +427,12 @@ int ThroughLines::clearance(const Eigen::Vector3d& p) const {
     return std::clamp(occ.f * occ.clearance[occ.cindex(v.x() / occ.f, v.y() / occ.f, v.z() / occ.f)], 1, 255);
 }
 
-int ThroughLines::count(const Eigen::Vector3d& p, int enough, std::uint64_t seed, std::uint64_t stream) const {
+int ThroughLines::count(const Eigen::Vector3d& p, int enough) const {
     PCP_CHECK(enough >= 1, "through lines: enough must be >= 1");
-    Rng rng(seed, stream);
-    const Eigen::Matrix3d R = random_rotation(rng);
     int through = 0;
-    for (std::size_t r = 0; r < impl_->dirs.size() && through < enough; ++r) {
-        const Eigen::Vector3d d = R * impl_->dirs[r];
-        if (impl_->occ.escapes(p, d) && impl_->occ.escapes(p, -d)) ++through;
+    for (const LineBitmap& b : impl_->lines) {
+        if (!b.blocked(p, impl_->pixel)) ++through;
+        if (through >= enough) break;
     }
     return through;
 }

@@ -44,9 +44,9 @@ void bare_walls(const detail::Lattice& L, const std::vector<std::uint8_t>& insid
 ThroughCarveStats carve_through_lines(SdfGrid& grid, const KdTree& cloud, const ThroughCarveOptions& o) {
     const auto t0 = std::chrono::steady_clock::now();
     PCP_CHECK(o.voxels_per_cell >= 1 && o.voxels_per_cell <= 8, "through carve: voxels_per_cell must be in 1..8, got " << o.voxels_per_cell);
-    PCP_CHECK(o.rays >= 8 && o.rays <= 1024, "through carve: rays must be in 8..1024, got " << o.rays);
-    PCP_CHECK(o.min_through_lines >= 1 && o.min_through_lines <= o.rays,
-              "through carve: min_through_lines must be in 1..rays, got " << o.min_through_lines);
+    PCP_CHECK(o.directions >= 8 && o.directions <= 4096, "through carve: directions must be in 8..4096, got " << o.directions);
+    PCP_CHECK(o.min_through_lines >= 1 && o.min_through_lines <= o.directions,
+              "through carve: min_through_lines must be in 1..directions, got " << o.min_through_lines);
     PCP_CHECK(std::isfinite(o.dilation) && o.dilation > 0.0, "through carve: dilation must be > 0");
     PCP_CHECK(std::isfinite(o.max_distance) && o.max_distance > 0.0, "through carve: max_distance must be > 0");
     PCP_CHECK(o.min_wall_support >= 0.0 && o.min_wall_support <= 1.0, "through carve: min_wall_support must be in [0, 1]");
@@ -60,7 +60,7 @@ ThroughCarveStats carve_through_lines(SdfGrid& grid, const KdTree& cloud, const 
     }
 
     // 1. The occupancy grid of the dilated cloud.
-    const ThroughLines lines(cloud, grid.spec.box, std::min(1024, o.voxels_per_cell * L.R), o.dilation, o.rays, std::min(4, o.voxels_per_cell));
+    const ThroughLines lines(cloud, grid.spec.box, std::min(1024, o.voxels_per_cell * L.R), o.dilation, o.directions, std::min(4, o.voxels_per_cell));
     // Free voxels within max_distance of the data: the chessboard clearance c of a voxel puts its
     // points at least r + (c - 1) h from every input point, so c - 1 <= (max - r) / h.
     const double reach = o.max_distance * sampling_scale(cloud) - lines.radius();
@@ -102,7 +102,7 @@ ThroughCarveStats carve_through_lines(SdfGrid& grid, const KdTree& cloud, const 
             const int c = lines.clearance(p);
             if (c == 0 || c > max_clearance) continue;
             ++candidates;
-            if (lines.count(p, o.min_through_lines, o.seed, static_cast<std::uint64_t>(g)) >= o.min_through_lines)
+            if (lines.count(p, o.min_through_lines) >= o.min_through_lines)
                 through[static_cast<std::size_t>(g)] = 1;
         }
         st.candidates += candidates;

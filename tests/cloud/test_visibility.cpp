@@ -4,6 +4,7 @@
 #include "pcp/cloud/shapes.hpp"
 #include "pcp/cloud/visibility.hpp"
 #include "pcp/core/error.hpp"
+#include "pcp/core/rng.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -175,17 +176,65 @@ TEST_CASE("visibility: through lines at points: none from a sphere's centre, man
     pcp::Aabb box;
     box.min = Eigen::Vector3d::Constant(-0.5);
     box.max = Eigen::Vector3d::Constant(0.5);
-    const pcp::ThroughLines lines(tree, box, 128, 0.5, 64);
+    const pcp::ThroughLines lines(tree, box, 128, 0.5, 256);
     CHECK(lines.voxel() == Approx(1.0 / 128));
     CHECK(lines.radius() == Approx(0.5 * pcp::sampling_scale(tree)));
     CHECK(lines.clearance(Eigen::Vector3d::Zero()) > 0);
     CHECK(lines.clearance(Eigen::Vector3d(0.3, 0, 0)) == 0);  // on the surface: blocked
     CHECK(lines.clearance(Eigen::Vector3d(2, 0, 0)) == 255);  // outside the grid
-    CHECK(lines.count(Eigen::Vector3d::Zero(), 64, 1, 0) == 0);
-    CHECK(lines.count(Eigen::Vector3d(0.42, 0.42, 0), 3, 1, 0) == 3);  // a corner of the box: lines pass the sphere by
-    CHECK(lines.count(Eigen::Vector3d(0.42, 0.42, 0), 64, 1, 7) == lines.count(Eigen::Vector3d(0.42, 0.42, 0), 64, 1, 7));
+    // The centre: every line meets the sphere; a corner of the box: most lines pass it by.
+    CHECK(lines.count(Eigen::Vector3d::Zero(), 256) == 0);
+    const int corner = lines.count(Eigen::Vector3d(0.42, 0.42, 0), 256);
+    CHECK(corner > 128);
+    CHECK(corner < 256);
+    CHECK(lines.count(Eigen::Vector3d(0.42, 0.42, 0), 3) == 3);  // stops at enough
     CHECK_THROWS_AS(pcp::ThroughLines(tree, box, 4, 0.5, 64), pcp::Error);
     CHECK_THROWS_AS(pcp::ThroughLines(tree, box, 128, 0.0, 64), pcp::Error);
     CHECK_THROWS_AS(pcp::ThroughLines(tree, box, 128, 0.5, 0), pcp::Error);
-    CHECK_THROWS_AS(lines.count(Eigen::Vector3d::Zero(), 0, 1, 0), pcp::Error);
+    CHECK_THROWS_AS(pcp::ThroughLines(tree, box, 128, 0.5, 4097), pcp::Error);
+    CHECK_THROWS_AS(lines.count(Eigen::Vector3d::Zero(), 0), pcp::Error);
+}
+
+TEST_CASE("visibility: through lines counted within a pixel of each line's distance to the balls; a bore's few lines found", "[visibility]") {
+    // The wall of a tube of radius 0.06 along x, 0.6 long: from its middle the lines that leave at
+    // both ends lie in a cone of about 10 degrees, some 2 % of the directions.
+    pcp::Rng rng(3);
+    pcp::PointsF tube(6000, 3);
+    for (Eigen::Index i = 0; i < tube.rows(); ++i) {
+        const double x = -0.3 + 0.6 * rng.uniform(), a = 2 * 3.14159265358979 * rng.uniform();
+        tube.row(i) = Eigen::RowVector3f(float(x), float(0.06 * std::cos(a)), float(0.06 * std::sin(a)));
+    }
+    const pcp::KdTree tree(tube);
+    pcp::Aabb box;
+    box.min = Eigen::Vector3d::Constant(-0.5);
+    box.max = Eigen::Vector3d::Constant(0.5);
+    const int n_dirs = 1024;
+    const pcp::ThroughLines lines(tree, box, 256, 0.5, n_dirs);
+    const std::vector<Eigen::Vector3d> dirs = pcp::line_directions(n_dirs);
+    REQUIRE(dirs.size() == std::size_t(n_dirs));
+    // The lines through p whose distance to every ball centre exceeds `radius`.
+    const auto exact = [&](const Eigen::Vector3d& p, double radius) {
+        int n = 0;
+        for (const Eigen::Vector3d& d : dirs) {
+            CHECK(d.z() > 0);
+            bool free = true;
+            for (Eigen::Index i = 0; i < tube.rows() && free; ++i) {
+                const Eigen::Vector3d w = tube.row(i).transpose().cast<double>() - p;
+                free = (w - w.dot(d) * d).norm() > radius;
+            }
+            n += free;
+        }
+        return n;
+    };
+    // A stamp covers the disc and at most an eighth of a pixel diagonal more, beyond the pixel itself.
+    const double r = lines.radius(), slack = 1.125 * std::sqrt(2.0) * lines.voxel();
+    for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.05, 0.0, 0.01), Eigen::Vector3d(0.0, 0.2, 0.1), Eigen::Vector3d(-0.2, 0.03, -0.02)}) {
+        const int n = lines.count(p, n_dirs);
+        INFO("at " << p.transpose() << ": " << n << " free lines");
+        CHECK(n <= exact(p, r));
+        CHECK(n >= exact(p, r + slack));
+    }
+    const int bore = lines.count(Eigen::Vector3d(0.05, 0.0, 0.01), n_dirs);
+    CHECK(bore >= 6);
+    CHECK(bore <= 40);
 }

@@ -99,18 +99,29 @@ VisibilityLabels label_by_visibility(const KdTree& tree, const Aabb& box, const 
 /// The same over the tree's own points' box grown by options.margin on every side.
 VisibilityLabels label_by_visibility(const KdTree& tree, const VisibilityOptions& options = {});
 
+/// `n` unit directions spread evenly over the half-sphere z > 0 (a Fibonacci spiral): the line
+/// directions of ThroughLines. Throws pcp::Error on n < 1.
+std::vector<Eigen::Vector3d> line_directions(int n);
+
 /// The through-line rule of label_by_visibility at single points instead of cells: whether lines
-/// through a point cross no wall of the dilated cloud. The occupancy grid (voxels of edge
-/// box.extent().maxCoeff() / occupancy_resolution, blocked where they meet the ball of radius
-/// dilation x sampling_scale around an input point) is built once; the queries are thread-safe.
+/// through a point cross no wall of the dilated cloud (the balls of radius dilation x
+/// sampling_scale around the input points). An occupancy grid of those balls (voxels of edge
+/// box.extent().maxCoeff() / occupancy_resolution) gives each point's clearance; the lines are
+/// counted without marching: a line along d meets a ball exactly when the ball's disc in the plane
+/// across d covers the line's point there, so for each direction the discs are drawn into a bitmap
+/// of that plane (pixels of the voxels' edge) and a point's line is free when its pixel is clear.
+/// A narrow bore's lines, a cone of a few degrees, are counted by as many directions as point at it,
+/// where random rays found them by chance. Thread-safe queries.
 class ThroughLines {
 public:
-    /// `rays` directions per point: a Fibonacci sphere, turned per point (count()). The clearance
-    /// that lets the marches skip free space is kept on voxels clearance_factor times coarser (the
-    /// same voxels are tested; its two raster passes cost factor^3 times less). Throws pcp::Error on
-    /// a resolution outside 8..1024, a dilation <= 0, rays outside 1..1024, a factor outside 1..4, a
-    /// degenerate box or a tree of fewer than 2 points (or with no spread).
-    ThroughLines(const KdTree& tree, const Aabb& box, int occupancy_resolution, double dilation, int rays,
+    /// `directions` line directions spread evenly over a half-sphere, the same for every point (a
+    /// line and its reverse are one line); their bitmaps are drawn here, OpenMP over the directions
+    /// (a bitmap's pixels are the voxels' edge, larger when all of them would pass 64 MiB). The
+    /// clearance is kept on voxels clearance_factor times coarser (its two raster passes cost
+    /// factor^3 times less). Throws pcp::Error on a resolution outside 8..1024, a dilation <= 0,
+    /// directions outside 1..4096, a factor outside 1..4, a degenerate box or a tree of fewer than 2
+    /// points (or with no spread).
+    ThroughLines(const KdTree& tree, const Aabb& box, int occupancy_resolution, double dilation, int directions,
                  int clearance_factor = 1);
     ~ThroughLines();
     ThroughLines(ThroughLines&&) noexcept;
@@ -122,10 +133,10 @@ public:
     /// capped at 255) to the nearest blocked one, to the clearance's coarse voxels (a multiple of
     /// clearance_factor, at most that much short); 255 outside the grid.
     int clearance(const Eigen::Vector3d& p) const;
-    /// How many of the directions, turned by a random rotation drawn from (seed, stream), leave
-    /// the grid from p at both ends (d and -d) without meeting a blocked voxel; counting stops at
-    /// `enough` (> 0).
-    int count(const Eigen::Vector3d& p, int enough, std::uint64_t seed, std::uint64_t stream) const;
+    /// How many of the directions give a line through p that meets no ball: exact for the balls but
+    /// for the pixels' size (a line passing within a pixel of a disc counts as blocked); counting
+    /// stops at `enough` (> 0).
+    int count(const Eigen::Vector3d& p, int enough) const;
 
 private:
     struct Impl;
