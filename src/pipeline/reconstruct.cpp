@@ -354,7 +354,11 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     }
     // Openings the field spans though lines pass through them that cross no wall of the data
     // (include/pcp/mesh/through_carve.hpp).
-    r.through_carve = carve_through_lines(grid, cloud.tree(), options.through_carve);
+    // Not in the scene mode: a room open at its top has lines over its floor that pass no wall, as
+    // a cap the scan missed has (include/pcp/mesh/through_carve.hpp), and the floor would go.
+    ThroughCarveOptions carve = options.through_carve;
+    if (options.scene.enabled) carve.enabled = false;
+    r.through_carve = carve_through_lines(grid, cloud.tree(), carve);
     // The dual: bridges of solid as thin, cut where that removes a handle and leaves the solid whole.
     r.bridge_cut = cut_bridges(grid, options.tunnel_fill);
     // Sheets the grid's samples miss at thin_offset: their level raised (ReconstructOptions::thin_probe).

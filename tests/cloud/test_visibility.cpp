@@ -195,7 +195,7 @@ TEST_CASE("visibility: through lines at points: none from a sphere's centre, man
     CHECK_THROWS_AS(lines.count(Eigen::Vector3d::Zero(), 0), pcp::Error);
 }
 
-TEST_CASE("visibility: through lines counted within a pixel of each line's distance to the balls; a bore's few lines found", "[visibility]") {
+TEST_CASE("visibility: through lines counted within a pixel of each line's distance to the balls, and a bore's few lines found", "[visibility]") {
     // The wall of a tube of radius 0.06 along x, 0.6 long: from its middle the lines that leave at
     // both ends lie in a cone of about 10 degrees, some 2 % of the directions.
     pcp::Rng rng(3);

@@ -110,7 +110,7 @@ TEST_CASE("through carve: a plate spanning the gaps between slats is carved back
     CHECK(topology(mesh).euler() == 8);  // four separate slats
 }
 
-TEST_CASE("through carve: a narrow bore that the field fills is carved open; 64 directions miss it", "[through_carve]") {
+TEST_CASE("through carve: a narrow bore that the field fills is carved open, which 64 directions miss", "[through_carve]") {
     // A block 0.4 x 0.4 x 0.4 with a bore of radius 0.06 along x through it: points on the block's
     // faces but the bore's mouths, and on the bore's wall; the field is the block's, bore filled.
     // From the bore's middle the lines that leave at both ends lie in a cone of about 16 degrees
