@@ -197,6 +197,10 @@ VisibilityLabels label_by_visibility(const KdTree& tree, const Aabb& box, const 
     PCP_CHECK(o.rays >= 8 && o.rays <= 1024, "visibility: rays must be in 8..1024, got " << o.rays);
     PCP_CHECK(o.min_through_lines >= 0 && o.min_through_lines <= o.rays,
               "visibility: min_through_lines must be in 0..rays, got " << o.min_through_lines);
+    PCP_CHECK(o.line_directions == 0 || (o.line_directions >= 8 && o.line_directions <= 4096),
+              "visibility: line_directions must be 0 or in 8..4096, got " << o.line_directions);
+    PCP_CHECK(o.line_directions == 0 || (o.min_free_lines >= 1 && o.min_free_lines <= o.line_directions),
+              "visibility: min_free_lines must be in 1..line_directions, got " << o.min_free_lines);
     PCP_CHECK(std::isfinite(o.dilation) && o.dilation > 0.0, "visibility: dilation must be > 0");
     PCP_CHECK(std::isfinite(o.min_distance) && o.min_distance >= 0.0, "visibility: min_distance must be >= 0");
     PCP_CHECK(o.outside_fraction > 0.0 && o.outside_fraction <= 1.0, "visibility: outside_fraction must be in (0, 1]");
@@ -252,6 +256,16 @@ VisibilityLabels label_by_visibility(const KdTree& tree, const Aabb& box, const 
         }
         if (label == 0 && escaped == 0) label = -1;
         out.label[static_cast<std::size_t>(c)] = label;
+    }
+    // 4. The cells not outside yet, their lines counted exactly (a narrow bore's middle).
+    if (o.line_directions > 0) {
+        const ThroughLines lines(tree, box, o.occupancy_resolution, o.dilation, o.line_directions);
+#pragma omp parallel for schedule(dynamic, 256)
+        for (std::int64_t c = 0; c < n_cells; ++c) {
+            if (dist(c) < clear || out.label[static_cast<std::size_t>(c)] > 0) continue;
+            const Eigen::Vector3d from = centers.row(c).transpose().cast<double>();
+            if (lines.count(from, o.min_free_lines) >= o.min_free_lines) out.label[static_cast<std::size_t>(c)] = 1;
+        }
     }
     for (std::size_t c = 0; c < cells; ++c) {
         if (dist(static_cast<Eigen::Index>(c)) < clear) {

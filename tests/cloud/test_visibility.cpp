@@ -72,12 +72,14 @@ TEST_CASE("visibility: the default shape's through-hole is outside, its block in
     pcp::VisibilityOptions o;
     o.outside_fraction = 0.1;
     o.min_through_lines = 0;
+    o.line_directions = 0;
     const pcp::VisibilityLabels l = pcp::label_by_visibility(cloud.tree(), grown_box(cloud.unit(), 0.05), o);
     const Agreement a = check_labels(l, cloud, [](const Eigen::Vector3d& p) { return pcp::default_shape_sdf(p); });
     CHECK(a.wrong == 0);
     CHECK(a.inside > 50);
     pcp::VisibilityOptions half;
     half.min_through_lines = 0;
+    half.line_directions = 0;
     const pcp::VisibilityLabels d = pcp::label_by_visibility(cloud.tree(), grown_box(cloud.unit(), 0.05), half);
     CHECK(check_labels(d, cloud, [](const Eigen::Vector3d& p) { return pcp::default_shape_sdf(p); }).wrong == 0);
     CHECK(d.stats.outside < l.stats.outside);
@@ -90,7 +92,8 @@ TEST_CASE("visibility: the default shape's through-hole is outside, its block in
 
 TEST_CASE("visibility: the middle of a through-hole is outside by its lines that cross no wall", "[visibility][heavy]") {
     // At the default outside_fraction the hole's middle sees out along too few directions; every one
-    // of them escapes at both ends, which min_through_lines counts. No cell is labelled wrongly.
+    // of them escapes at both ends, which min_through_lines counts (and the exact count of step 4).
+    // No cell is labelled wrongly.
     const pcp::PointCloud s = pcp::sample_default_shape(20000, 0.0, 5);
     const pcp::PreparedCloud cloud(s.points, "default shape", 2);
     const auto sdf = [](const Eigen::Vector3d& p) { return pcp::default_shape_sdf(p); };
@@ -102,6 +105,7 @@ TEST_CASE("visibility: the middle of a through-hole is outside by its lines that
     CHECK(count_cells(with, cloud, on_axis) >= 3);
     pcp::VisibilityOptions off;
     off.min_through_lines = 0;
+    off.line_directions = 0;
     const pcp::VisibilityLabels without = pcp::label_by_visibility(cloud.tree(), grown_box(cloud.unit(), 0.05), off);
     CHECK(count_cells(without, cloud, on_axis) == 0);
     CHECK(without.stats.outside < with.stats.outside);
@@ -237,4 +241,47 @@ TEST_CASE("visibility: through lines counted within a pixel of each line's dista
     const int bore = lines.count(Eigen::Vector3d(0.05, 0.0, 0.01), n_dirs);
     CHECK(bore >= 6);
     CHECK(bore <= 40);
+}
+
+TEST_CASE("visibility: a narrow bore's middle is labelled outside by its exact lines, not by 64 random rays", "[visibility]") {
+    // A cube 0.6 across with a bore of radius 0.07 along x through it: points on the cube's faces
+    // but the bore's mouths, and on the bore's wall. From the bore's middle a cone of about 13
+    // degrees leaves at both ends: under 3 % of the directions.
+    pcp::Rng rng(21);
+    std::vector<Eigen::RowVector3f> kept;
+    const double h = 0.3, radius = 0.07;
+    while (kept.size() < 30000) {
+        Eigen::Vector3d x(2 * rng.uniform() - 1, 2 * rng.uniform() - 1, 2 * rng.uniform() - 1);
+        const int axis = int(rng.below(3));
+        x(axis) = rng.uniform() < 0.5 ? -1.0 : 1.0;
+        x *= h;
+        if (axis == 0 && std::hypot(x.y(), x.z()) < radius) continue;  // a mouth
+        kept.emplace_back(x.cast<float>().transpose());
+    }
+    for (int i = 0; i < 6000; ++i) {
+        const double x = -h + 2 * h * rng.uniform(), a = 2 * 3.14159265358979 * rng.uniform();
+        kept.emplace_back(float(x), float(radius * std::cos(a)), float(radius * std::sin(a)));
+    }
+    pcp::PointsF points(static_cast<Eigen::Index>(kept.size()), 3);
+    for (std::size_t i = 0; i < kept.size(); ++i) points.row(static_cast<Eigen::Index>(i)) = kept[i];
+    const pcp::KdTree tree(points);
+    pcp::Aabb box;
+    box.min = Eigen::Vector3d::Constant(-0.5);
+    box.max = Eigen::Vector3d::Constant(0.5);
+    const Eigen::Vector3d middle(0.01, 0.005, -0.003), body(0.0, 0.19, 0.0);
+    const pcp::VisibilityLabels exact = pcp::label_by_visibility(tree, box, {});
+    CHECK(exact.label_at(middle) == 1);
+    CHECK(exact.label_at(body) == -1);  // the solid between the bore and a face
+    pcp::VisibilityOptions rays_only;
+    rays_only.line_directions = 0;
+    const pcp::VisibilityLabels marched = pcp::label_by_visibility(tree, box, rays_only);
+    CHECK(marched.label_at(middle) != 1);
+    CHECK(marched.label_at(body) == -1);
+    CHECK(exact.stats.outside > marched.stats.outside);
+    pcp::VisibilityOptions bad;
+    bad.line_directions = 4;
+    CHECK_THROWS_AS(pcp::label_by_visibility(tree, box, bad), pcp::Error);
+    bad = {};
+    bad.min_free_lines = 0;
+    CHECK_THROWS_AS(pcp::label_by_visibility(tree, box, bad), pcp::Error);
 }

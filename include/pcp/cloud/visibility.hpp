@@ -22,6 +22,13 @@
 //     min_through_lines of them escape at both ends (the cell lies on lines that cross no wall: a
 //     through-hole): outside (+1). Otherwise (a view out through a hole in the scan, the bottom
 //     of a deep slot): unknown (0), and the guide says nothing there.
+//  4. The cells not outside then are counted again by ThroughLines (below), exactly, in
+//     line_directions fixed directions: with min_free_lines of them free of the balls, outside. A
+//     narrow bore's middle sees out along a cone of a few degrees only, which 64 random rays rarely
+//     hit (unknown, or inside when none did): abc_00010071's and abc_00011084's bores
+//     (docs/BENCHMARKS.md, "Bores labelled by their exact lines"). 12 of 1024, not 6: at 6, lines
+//     through the gaps of an even sampling (the balls do not close every gap at grazing angles)
+//     labelled 11 cells inside a sampled sphere outside.
 //
 // Wrong labels are possible where no ray can see a true outside (an enclosed cavity, which no
 // scanner sees either; thin walls closing small pockets: abc_00010098) and where the data has a
@@ -55,6 +62,10 @@ struct VisibilityOptions {
     /// outside_fraction), but every one of them is such a line; the inside of a scan seen through
     /// one opening (the bunny's base) has none. 0 = off.
     int min_through_lines = 3;
+    /// Step 4: line directions of the exact count (0 = off; else 8..4096) and the free lines among
+    /// them that make a cell outside (1..line_directions).
+    int line_directions = 1024;
+    int min_free_lines = 12;
     std::uint64_t seed = 1;           ///< the per-cell rotations of the ray directions
     double margin = 0.05;             ///< the labelled box: the cloud's box grown by this on every side (>= 0)
 };
