@@ -349,7 +349,8 @@ struct DiscStamps {
 };
 
 /// Sets the pixels of `b` that the disc of each ball (centres `points`) may meet (DiscStamps). The
-/// plane's margin (line_plane) keeps every stamp inside the bitmap.
+/// plane's margin (line_plane) keeps every stamp of a ball in the box inside the bitmap; a ball
+/// outside the box is drawn pixel by pixel, clipped.
 void draw_discs(LineBitmap& b, const PointsF& points, const DiscStamps& stamps, double pixel) {
     b.bits.assign(static_cast<std::size_t>((b.width * b.height + 63) / 64), 0);
     constexpr int kParts = DiscStamps::kSub * DiscStamps::kSub;
@@ -363,10 +364,24 @@ void draw_discs(LineBitmap& b, const PointsF& points, const DiscStamps& stamps, 
         const Eigen::Vector3f x = points.row(i).transpose();
         const float a = u.dot(x) - u0, c = v.dot(x) - v0;
         const float fa = std::floor(a), fc = std::floor(c);
+        const auto far = float(stamps.reach + 1);
+        if (!(fa > -far && fc > -far && fa < float(b.width) + far && fc < float(b.height) + far)) continue;  // misses the plane
+        const auto ia = static_cast<std::int64_t>(fa), ic = static_cast<std::int64_t>(fc);
         const int qa = std::min(DiscStamps::kSub - 1, static_cast<int>((a - fa) * DiscStamps::kSub));
         const int qc = std::min(DiscStamps::kSub - 1, static_cast<int>((c - fc) * DiscStamps::kSub));
-        const std::int64_t base = static_cast<std::int64_t>(fc) * b.width + static_cast<std::int64_t>(fa);
-        for (const std::int64_t off : linear[static_cast<std::size_t>(qa * DiscStamps::kSub + qc)]) {
+        const std::size_t part = static_cast<std::size_t>(qa * DiscStamps::kSub + qc);
+        if (!(fa >= float(stamps.reach) && fc >= float(stamps.reach) && fa + float(stamps.reach) < float(b.width) &&
+              fc + float(stamps.reach) < float(b.height))) {
+            for (const auto& [di, dj] : stamps.offsets[part]) {
+                const std::int64_t i2 = ia + di, j2 = ic + dj;
+                if (i2 < 0 || j2 < 0 || i2 >= b.width || j2 >= b.height) continue;
+                const std::int64_t bit = j2 * b.width + i2;
+                b.bits[static_cast<std::size_t>(bit >> 6)] |= std::uint64_t(1) << (bit & 63);
+            }
+            continue;
+        }
+        const std::int64_t base = ic * b.width + ia;
+        for (const std::int64_t off : linear[part]) {
             const std::int64_t bit = base + off;
             b.bits[static_cast<std::size_t>(bit >> 6)] |= std::uint64_t(1) << (bit & 63);
         }

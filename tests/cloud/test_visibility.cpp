@@ -285,3 +285,32 @@ TEST_CASE("visibility: a narrow bore's middle is labelled outside by its exact l
     bad.min_free_lines = 0;
     CHECK_THROWS_AS(pcp::label_by_visibility(tree, box, bad), pcp::Error);
 }
+
+TEST_CASE("visibility: through lines with points outside the box are drawn clipped, counts still bounded", "[visibility]") {
+    // A sphere of radius 0.3 centred at x = 0.45: half of it lies beyond the box's face x = 0.5.
+    const pcp::PointsF far_points = pcp::sample_sphere(4000, 0.3, Eigen::Vector3d(0.45, 0, 0), 7).points.cast<float>();
+    const pcp::KdTree tree(far_points);
+    pcp::Aabb box;
+    box.min = Eigen::Vector3d::Constant(-0.5);
+    box.max = Eigen::Vector3d::Constant(0.5);
+    const pcp::ThroughLines lines(tree, box, 128, 0.5, 256);
+    const std::vector<Eigen::Vector3d> dirs = pcp::line_directions(256);
+    const double r = lines.radius(), slack = 1.125 * std::sqrt(2.0) * lines.voxel();
+    for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.45, 0, 0), Eigen::Vector3d(-0.3, 0.2, 0.1), Eigen::Vector3d(0.4, 0.4, 0.4)}) {
+        int exact_r = 0, exact_slack = 0;
+        for (const Eigen::Vector3d& d : dirs) {
+            double nearest = 1e9;
+            for (Eigen::Index i = 0; i < far_points.rows(); ++i) {
+                const Eigen::Vector3d w = far_points.row(i).transpose().cast<double>() - p;
+                nearest = std::min(nearest, (w - w.dot(d) * d).norm());
+            }
+            exact_r += nearest > r;
+            exact_slack += nearest > r + slack;
+        }
+        const int n = lines.count(p, 256);
+        INFO("at " << p.transpose() << ": " << n << " free lines, exact " << exact_slack << ".." << exact_r);
+        CHECK(n <= exact_r);
+        CHECK(n >= exact_slack);
+    }
+    CHECK(lines.count(Eigen::Vector3d(0.45, 0, 0), 256) == 0);  // the sphere's centre
+}
