@@ -302,9 +302,9 @@ struct LineBitmap {
     }
 };
 
-/// The plane across direction d over `box`, wider on every side by a disc's stamp (DiscStamps::reach
-/// pixels) and a pixel, so that every stamp of a ball in the box lies in it; no bits yet.
-LineBitmap line_plane(const Eigen::Vector3d& d, const Aabb& box, double radius, double pixel) {
+/// The plane across direction d over `box`, wider on every side by `margin` pixels (a disc's stamp,
+/// DiscStamps::reach, and one more), so that every stamp of a ball in the box lies in it; no bits yet.
+LineBitmap line_plane(const Eigen::Vector3d& d, const Aabb& box, int margin_pixels, double pixel) {
     Eigen::Index least = 0;
     d.cwiseAbs().minCoeff(&least);
     LineBitmap b;
@@ -318,7 +318,7 @@ LineBitmap line_plane(const Eigen::Vector3d& d, const Aabb& box, double radius, 
         lo = lo.cwiseMin(q);
         hi = hi.cwiseMax(q);
     }
-    const double margin = (std::ceil(radius / pixel) + 2) * pixel;
+    const double margin = margin_pixels * pixel;
     b.lo = lo.array() - margin;
     b.width = static_cast<std::int64_t>(std::ceil((hi.x() - lo.x() + 2 * margin) / pixel));
     b.height = static_cast<std::int64_t>(std::ceil((hi.y() - lo.y() + 2 * margin) / pixel));
@@ -353,6 +353,7 @@ struct DiscStamps {
 /// outside the box is drawn pixel by pixel, clipped.
 void draw_discs(LineBitmap& b, const PointsF& points, const DiscStamps& stamps, double pixel) {
     b.bits.assign(static_cast<std::size_t>((b.width * b.height + 63) / 64), 0);
+    const auto set = [&](std::int64_t bit) { b.bits[static_cast<std::size_t>(bit >> 6)] |= std::uint64_t(1) << (bit & 63); };
     constexpr int kParts = DiscStamps::kSub * DiscStamps::kSub;
     // The stamps as offsets in the bitmap's row-major order, for this width.
     std::array<std::vector<std::int64_t>, kParts> linear;
@@ -374,17 +375,12 @@ void draw_discs(LineBitmap& b, const PointsF& points, const DiscStamps& stamps, 
               fc + float(stamps.reach) < float(b.height))) {
             for (const auto& [di, dj] : stamps.offsets[part]) {
                 const std::int64_t i2 = ia + di, j2 = ic + dj;
-                if (i2 < 0 || j2 < 0 || i2 >= b.width || j2 >= b.height) continue;
-                const std::int64_t bit = j2 * b.width + i2;
-                b.bits[static_cast<std::size_t>(bit >> 6)] |= std::uint64_t(1) << (bit & 63);
+                if (i2 >= 0 && j2 >= 0 && i2 < b.width && j2 < b.height) set(j2 * b.width + i2);
             }
             continue;
         }
         const std::int64_t base = ic * b.width + ia;
-        for (const std::int64_t off : linear[part]) {
-            const std::int64_t bit = base + off;
-            b.bits[static_cast<std::size_t>(bit >> 6)] |= std::uint64_t(1) << (bit & 63);
-        }
+        for (const std::int64_t off : linear[part]) set(base + off);
     }
 }
 
@@ -420,7 +416,7 @@ struct ThroughLines::Impl {
 #pragma omp parallel for schedule(dynamic, 1)
         for (int t = 0; t < directions; ++t) {
             LineBitmap& b = lines[static_cast<std::size_t>(t)];
-            b = line_plane(dirs[static_cast<std::size_t>(t)], box, r, pixel);
+            b = line_plane(dirs[static_cast<std::size_t>(t)], box, stamps.reach + 1, pixel);
             draw_discs(b, points, stamps, pixel);
         }
     }

@@ -121,10 +121,12 @@ ThroughCarveStats carve_through_lines(SdfGrid& grid, const KdTree& cloud, const 
         seen[static_cast<std::size_t>(g0)] = 1;
         detail::flood_26(L, g0, seen, [&](std::size_t h) { return through[h] != 0; }, [&](std::int64_t g) { piece.push_back(g); });
         ++st.pieces;
-        bare_walls(L, inside, through, piece, mark, walls);
-        std::int64_t on_data = 0;
-        for (std::int64_t h : walls) on_data += lines.clearance(position(h)) == 0;
-        if (static_cast<double>(on_data) < o.min_wall_support * static_cast<double>(walls.size())) continue;
+        if (o.min_wall_support > 0) {  // the bared walls only matter when they must stand on the data
+            bare_walls(L, inside, through, piece, mark, walls);
+            std::int64_t on_data = 0;
+            for (std::int64_t h : walls) on_data += lines.clearance(position(h)) == 0;
+            if (static_cast<double>(on_data) < o.min_wall_support * static_cast<double>(walls.size())) continue;
+        }
         ++st.opened;
         st.carved += static_cast<std::int64_t>(piece.size());
         for (std::int64_t g : piece) carve[static_cast<std::size_t>(g)] = 1;

@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <functional>
+#include <vector>
 
 namespace {
 
@@ -46,6 +47,33 @@ Agreement check_labels(const pcp::VisibilityLabels& l, const pcp::PreparedCloud&
     a.outside = count_cells(l, cloud, [](const Eigen::Vector3d&, int label) { return label > 0; });
     a.wrong = count_cells(l, cloud, [&](const Eigen::Vector3d& p, int label) { return label != 0 && (label < 0) != (sdf(p) < 0); });
     return a;
+}
+
+/// Of the lines along `dirs` through p, those whose distance to every one of `points` exceeds
+/// `radius` (brute force).
+int free_lines_exact(const pcp::PointsF& points, const Eigen::Vector3d& p, const std::vector<Eigen::Vector3d>& dirs, double radius) {
+    int n = 0;
+    for (const Eigen::Vector3d& d : dirs) {
+        bool free = true;
+        for (Eigen::Index i = 0; i < points.rows() && free; ++i) {
+            const Eigen::Vector3d w = points.row(i).transpose().cast<double>() - p;
+            free = (w - w.dot(d) * d).norm() > radius;
+        }
+        n += free;
+    }
+    return n;
+}
+
+/// ThroughLines::count at p between the brute-force counts at the balls' radius (a line its bitmap
+/// finds free is free) and a stamp's slack beyond it (a stamp covers the disc and at most an eighth
+/// of a pixel diagonal more, beyond the pixel itself).
+void check_count_bounds(const pcp::ThroughLines& lines, const pcp::PointsF& points, int directions, const Eigen::Vector3d& p) {
+    const std::vector<Eigen::Vector3d> dirs = pcp::line_directions(directions);
+    const double r = lines.radius(), slack = 1.125 * std::sqrt(2.0) * lines.voxel();
+    const int n = lines.count(p, directions);
+    INFO("at " << p.transpose() << ": " << n << " free lines");
+    CHECK(n <= free_lines_exact(points, p, dirs, r));
+    CHECK(n >= free_lines_exact(points, p, dirs, r + slack));
 }
 
 }  // namespace
@@ -216,28 +244,9 @@ TEST_CASE("visibility: through lines counted within a pixel of each line's dista
     const pcp::ThroughLines lines(tree, box, 256, 0.5, n_dirs);
     const std::vector<Eigen::Vector3d> dirs = pcp::line_directions(n_dirs);
     REQUIRE(dirs.size() == std::size_t(n_dirs));
-    // The lines through p whose distance to every ball centre exceeds `radius`.
-    const auto exact = [&](const Eigen::Vector3d& p, double radius) {
-        int n = 0;
-        for (const Eigen::Vector3d& d : dirs) {
-            CHECK(d.z() > 0);
-            bool free = true;
-            for (Eigen::Index i = 0; i < tube.rows() && free; ++i) {
-                const Eigen::Vector3d w = tube.row(i).transpose().cast<double>() - p;
-                free = (w - w.dot(d) * d).norm() > radius;
-            }
-            n += free;
-        }
-        return n;
-    };
-    // A stamp covers the disc and at most an eighth of a pixel diagonal more, beyond the pixel itself.
-    const double r = lines.radius(), slack = 1.125 * std::sqrt(2.0) * lines.voxel();
-    for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.05, 0.0, 0.01), Eigen::Vector3d(0.0, 0.2, 0.1), Eigen::Vector3d(-0.2, 0.03, -0.02)}) {
-        const int n = lines.count(p, n_dirs);
-        INFO("at " << p.transpose() << ": " << n << " free lines");
-        CHECK(n <= exact(p, r));
-        CHECK(n >= exact(p, r + slack));
-    }
+    for (const Eigen::Vector3d& d : dirs) CHECK(d.z() > 0);
+    for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.05, 0.0, 0.01), Eigen::Vector3d(0.0, 0.2, 0.1), Eigen::Vector3d(-0.2, 0.03, -0.02)})
+        check_count_bounds(lines, tube, n_dirs, p);
     const int bore = lines.count(Eigen::Vector3d(0.05, 0.0, 0.01), n_dirs);
     CHECK(bore >= 6);
     CHECK(bore <= 40);
@@ -294,23 +303,7 @@ TEST_CASE("visibility: through lines with points outside the box are drawn clipp
     box.min = Eigen::Vector3d::Constant(-0.5);
     box.max = Eigen::Vector3d::Constant(0.5);
     const pcp::ThroughLines lines(tree, box, 128, 0.5, 256);
-    const std::vector<Eigen::Vector3d> dirs = pcp::line_directions(256);
-    const double r = lines.radius(), slack = 1.125 * std::sqrt(2.0) * lines.voxel();
-    for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.45, 0, 0), Eigen::Vector3d(-0.3, 0.2, 0.1), Eigen::Vector3d(0.4, 0.4, 0.4)}) {
-        int exact_r = 0, exact_slack = 0;
-        for (const Eigen::Vector3d& d : dirs) {
-            double nearest = 1e9;
-            for (Eigen::Index i = 0; i < far_points.rows(); ++i) {
-                const Eigen::Vector3d w = far_points.row(i).transpose().cast<double>() - p;
-                nearest = std::min(nearest, (w - w.dot(d) * d).norm());
-            }
-            exact_r += nearest > r;
-            exact_slack += nearest > r + slack;
-        }
-        const int n = lines.count(p, 256);
-        INFO("at " << p.transpose() << ": " << n << " free lines, exact " << exact_slack << ".." << exact_r);
-        CHECK(n <= exact_r);
-        CHECK(n >= exact_slack);
-    }
+    for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.45, 0, 0), Eigen::Vector3d(-0.3, 0.2, 0.1), Eigen::Vector3d(0.4, 0.4, 0.4)})
+        check_count_bounds(lines, far_points, 256, p);
     CHECK(lines.count(Eigen::Vector3d(0.45, 0, 0), 256) == 0);  // the sphere's centre
 }
