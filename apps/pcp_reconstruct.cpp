@@ -329,9 +329,13 @@ int main(int argc, char** argv) {
                             "not in the paper; include/pcp/mesh/sign_repair.hpp)",
              cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.min_label_votes)))
             ("winding-sign", "on | off: away from the data, give the field the sign of the generalised winding number of "
-                             "the input points oriented by the field (inner sheets, plugged holes, bubbles; not in the paper; "
+                             "the oriented input points (hollow walls, inner sheets, plugged holes, bubbles; not in the paper; "
                              "include/pcp/mesh/winding_sign.hpp)",
              cxxopts::value<std::string>()->default_value(d.winding_sign.enabled ? "on" : "off"))
+            ("winding-normals", "labels | field: orient the winding number's points by which side the visibility labels "
+                                "see outside (they exist with --label-votes > 0 or the sign guide), by the field where the "
+                                "labels orient fewer than half of them; or by the field only",
+             cxxopts::value<std::string>()->default_value(d.winding_sign.orient_by_labels ? "labels" : "field"))
             ("winding-near", "Distance from the data, in sampling scales, within which the field keeps its own sign",
              cxxopts::value<double>()->default_value(fmt(d.winding_sign.near_k)))
             ("cavity-fill", "on | off: fill the pockets of the fitted field's outside that the outside cannot reach (the hollow "
@@ -511,6 +515,11 @@ int main(int argc, char** argv) {
         if (args.count("label-votes")) o.sign_repair.min_label_votes = args["label-votes"].as<int>();
         if (o.sign_repair.min_label_votes < 0) throw pcp::cli::UsageError("--label-votes must be >= 0");
         if (const auto on = on_off(args, "winding-sign")) o.winding_sign.enabled = *on;
+        if (args.count("winding-normals")) {
+            const std::string w = args["winding-normals"].as<std::string>();
+            if (w != "labels" && w != "field") throw pcp::cli::UsageError("--winding-normals must be labels or field (got '" + w + "')");
+            o.winding_sign.orient_by_labels = w == "labels";
+        }
         if (args.count("winding-near")) o.winding_sign.near_k = args["winding-near"].as<double>();
         if (!(o.winding_sign.near_k >= 0 && o.winding_sign.near_k <= 100))
             throw pcp::cli::UsageError("--winding-near must be in [0, 100]");
@@ -669,14 +678,15 @@ int main(int argc, char** argv) {
           << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "")
           << (report.winding_sign.points == 0 ? std::string(", winding sign off")
               : report.winding_sign.skipped
-                  ? ", winding sign skipped (the field orients only " +
+                  ? ", winding sign skipped (the " + std::string(report.winding_sign.by_labels ? "visibility labels orient" : "field orients") + " only " +
                         std::string(report.winding_sign.sampled > 0 ? "about " : "") + std::to_string(report.winding_sign.confident) +
                         " of " + std::to_string(report.winding_sign.points) + " points" +
                         (report.winding_sign.sampled > 0 ? ", from a sample of " + std::to_string(report.winding_sign.sampled) : std::string()) +
                         "; " + fmt(report.winding_sign.seconds) + " s)"
                   : ", winding sign changed " + std::to_string(report.winding_corrected) + " field values (" +
                         std::to_string(report.winding_sign.confident) + " of " + std::to_string(report.winding_sign.points) +
-                        " points oriented by the field, the others by their neighbours; " + fmt(report.winding_sign.seconds) + " s)")
+                        " points oriented by the " + std::string(report.winding_sign.by_labels ? "visibility labels" : "field") +
+                        ", the others by their neighbours; " + fmt(report.winding_sign.seconds) + " s)")
           << (report.visibility.inside + report.visibility.outside + report.visibility.unknown + report.visibility.near > 0
                   ? ", visibility labels " + std::to_string(report.visibility.inside) + " inside / " +
                         std::to_string(report.visibility.outside) + " outside / " + std::to_string(report.visibility.unknown) +

@@ -219,6 +219,40 @@ FieldNormals orient_normals_by_field(const SdfBatchFn& field, const KdTree& clou
     return out;
 }
 
+FieldNormals orient_normals_by_labels(const VisibilityLabels& labels, const KdTree& cloud, const FieldNormalsOptions& options) {
+    check_field_normals_options(options, "oriented normals");
+    PCP_CHECK(!labels.label.empty() && labels.cell > 0, "oriented normals: the visibility labels are empty");
+    PCP_CHECK(cloud.size() > options.normal_k,
+              "oriented normals: the cloud has " << cloud.size() << " points; normal_k = " << options.normal_k << " needs more");
+    const auto t0 = std::chrono::steady_clock::now();
+    FieldNormals out;
+    const PointsF& pts = cloud.points();
+    const Eigen::Index n = pts.rows();
+    out.stats.points = n;
+    out.normals = pca_normals(cloud, options.normal_k, out.neighbours, out.thickness);
+    out.votes.resize(n);
+    constexpr int kProbes = 4;
+#pragma omp parallel for schedule(static)
+    for (Eigen::Index i = 0; i < n; ++i) {
+        const Eigen::Vector3d p = pts.row(i).transpose().cast<double>(), nn = out.normals.row(i).transpose().cast<double>();
+        double vote = 0;
+        for (int s = 1; s <= kProbes; ++s) {
+            const double t = s * labels.cell;
+            vote += 0.5 * double(labels.label_at(p + t * nn) - labels.label_at(p - t * nn));
+        }
+        out.votes(i) = vote / kProbes;
+    }
+    for (Eigen::Index i = 0; i < n; ++i) out.stats.confident += std::abs(out.votes(i)) >= options.confident_vote;
+    std::vector<std::int8_t> sign;
+    out.stats.weak_orientation = orient_by_votes(out.normals, out.neighbours, out.votes, options.confident_vote, sign);
+    for (Eigen::Index i = 0; i < n; ++i) {
+        if (sign[static_cast<std::size_t>(i)] < 0) out.normals.row(i) = -out.normals.row(i);
+        if (double(sign[static_cast<std::size_t>(i)]) * out.votes(i) < 0) ++out.stats.against_own_vote;
+    }
+    out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+}
+
 double confident_vote_fraction(const SdfBatchFn& field, const KdTree& cloud, const FieldNormalsOptions& options,
                                Eigen::Index max_points) {
     check_field_normals_options(options, "oriented normals");

@@ -35,6 +35,16 @@ float dipole_term(const Eigen::Vector3f& source, const Eigen::Vector3f& moment, 
     return moment.dot(d) / (r2 * std::sqrt(r2));
 }
 
+void check_options(const WindingSignOptions& options) {
+    check_field_normals_options(options.normals, "winding sign");
+    PCP_CHECK(options.near_k >= 0 && std::isfinite(options.near_k), "winding sign: near_k must be >= 0");
+    PCP_CHECK(options.labels_near_k >= 0 && std::isfinite(options.labels_near_k), "winding sign: labels_near_k must be >= 0");
+    PCP_CHECK(options.margin >= 0 && options.margin < 0.5, "winding sign: margin must be in [0, 0.5)");
+    PCP_CHECK(options.opening >= 1 && std::isfinite(options.opening), "winding sign: opening must be >= 1");
+    PCP_CHECK(options.precheck_points >= 0, "winding sign: precheck_points must be >= 0");
+    PCP_CHECK(options.precheck_slack >= 0 && options.precheck_slack <= 1, "winding sign: precheck_slack must be in [0, 1]");
+}
+
 }  // namespace
 
 struct WindingSign::Impl {
@@ -46,6 +56,9 @@ struct WindingSign::Impl {
     std::vector<Node> nodes;
     PointsF sorted_points, sorted_moments;
     WindingSignStats stats;
+    std::vector<std::uint8_t> weak;  ///< per point: oriented by its neighbours (labels' normals only; else empty)
+    float weak_tau = 0;              ///< tau around those points (labels_near_k)
+    VisibilityLabels labels;  ///< the labels of the constructor from labels (empty otherwise): apply()'s outside where w is unclear
     mutable std::atomic<std::int64_t> corrected{0};
 
     int build(std::vector<std::int32_t>& order, int begin, int end, const PointsF& pts) {
@@ -83,6 +96,43 @@ struct WindingSign::Impl {
         return id;
     }
 
+    /// Step 2 from oriented normals: the areas, the enclosed volume's sign and the Barnes-Hut tree.
+    void adopt(FieldNormals oriented, const KdTree& tree) {
+        const PointsF& pts = tree.points();
+        const Eigen::Index n = pts.rows();
+        normals = std::move(oriented.normals);
+        stats.weak_orientation = oriented.stats.weak_orientation;
+        stats.against_own_vote = oriented.stats.against_own_vote;
+
+        // 2. Areas and the Barnes-Hut tree.
+        const int ka = static_cast<int>(std::min<Eigen::Index>(9, n));  // 8 other points + the point itself
+        const Eigen::VectorXf rk = tree.kth_distance(pts, ka);
+        areas = (rk.array().square() * static_cast<float>(3.14159265358979323846 / (ka - 1))).matrix();
+        // The enclosed volume, (1/3) sum_i a_i n_i . (p_i - c), is positive for outward normals. A
+        // field negative outside (a wrong global sign) would orient them all inward and the winding
+        // number would be -1 inside: then the normals are turned, so w is a proper inside indicator
+        // whatever the field's convention.
+        {
+            const Eigen::RowVector3d c = pts.cast<double>().colwise().mean();
+            double volume = 0;
+            for (Eigen::Index i = 0; i < n; ++i)
+                volume += double(areas(i)) * normals.row(i).cast<double>().dot(pts.row(i).cast<double>() - c) / 3.0;
+            stats.inward = volume < 0;
+            if (stats.inward) normals = -normals;
+        }
+        std::vector<std::int32_t> order(static_cast<std::size_t>(n));
+        std::iota(order.begin(), order.end(), 0);
+        nodes.reserve(static_cast<std::size_t>(2 * n / kLeafSize + 16));
+        build(order, 0, static_cast<int>(n), pts);
+        sorted_points.resize(n, 3);
+        sorted_moments.resize(n, 3);
+        for (Eigen::Index i = 0; i < n; ++i) {
+            const std::int32_t p = order[static_cast<std::size_t>(i)];
+            sorted_points.row(i) = pts.row(p);
+            sorted_moments.row(i) = areas(p) * normals.row(p);
+        }
+    }
+
     float winding_at(const Eigen::Vector3f& q) const {
         const float open2 = static_cast<float>(options.opening * options.opening);
         double sum = 0;
@@ -115,12 +165,7 @@ WindingSign::WindingSign(const SdfBatchFn& field, const KdTree& cloud, const Win
     : impl_(std::make_unique<Impl>()) {
     Impl& m = *impl_;
     m.options = options;
-    check_field_normals_options(options.normals, "winding sign");
-    PCP_CHECK(options.near_k >= 0 && std::isfinite(options.near_k), "winding sign: near_k must be >= 0");
-    PCP_CHECK(options.margin >= 0 && options.margin < 0.5, "winding sign: margin must be in [0, 0.5)");
-    PCP_CHECK(options.opening >= 1 && std::isfinite(options.opening), "winding sign: opening must be >= 1");
-    PCP_CHECK(options.precheck_points >= 0, "winding sign: precheck_points must be >= 0");
-    PCP_CHECK(options.precheck_slack >= 0 && options.precheck_slack <= 1, "winding sign: precheck_slack must be in [0, 1]");
+    check_options(options);
     if (!options.enabled) return;
     const auto t0 = std::chrono::steady_clock::now();
     m.cloud = &cloud;
@@ -152,36 +197,38 @@ WindingSign::WindingSign(const SdfBatchFn& field, const KdTree& cloud, const Win
         m.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         return;
     }
-    m.normals = std::move(oriented.normals);
-    m.stats.weak_orientation = oriented.stats.weak_orientation;
-    m.stats.against_own_vote = oriented.stats.against_own_vote;
+    m.adopt(std::move(oriented), cloud);
+    m.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
-    // 2. Areas and the Barnes-Hut tree.
-    const int ka = static_cast<int>(std::min<Eigen::Index>(9, n));  // 8 other points + the point itself
-    const Eigen::VectorXf rk = cloud.kth_distance(pts, ka);
-    m.areas = (rk.array().square() * static_cast<float>(3.14159265358979323846 / (ka - 1))).matrix();
-    // The enclosed volume, (1/3) sum_i a_i n_i . (p_i - c), is positive for outward normals. A
-    // field negative outside (a wrong global sign) would orient them all inward and the winding
-    // number would be -1 inside: then the normals are turned, so w is a proper inside indicator
-    // whatever the field's convention.
-    {
-        const Eigen::RowVector3d c = pts.cast<double>().colwise().mean();
-        double volume = 0;
+WindingSign::WindingSign(const VisibilityLabels& labels, const KdTree& cloud, const WindingSignOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+    Impl& m = *impl_;
+    m.options = options;
+    check_options(options);
+    if (!options.enabled) return;
+    const auto t0 = std::chrono::steady_clock::now();
+    m.cloud = &cloud;
+    const Eigen::Index n = cloud.size();
+    m.stats.points = n;
+    m.stats.tau = options.near_k * sampling_scale(cloud);
+    m.stats.by_labels = true;
+    // 1. PCA normals, oriented by which side the labels see outside (field_normals.hpp).
+    FieldNormals oriented = orient_normals_by_labels(labels, cloud, options.normals);
+    m.stats.confident = oriented.stats.confident;
+    if (double(m.stats.confident) < options.min_confident * double(n)) {
+        // Too few points with an outside on one side only (thin parts seen from both sides, or a
+        // cloud too small for the label cells): the orientation would be a guess.
+        m.stats.skipped = true;
+    } else {
+        m.weak.resize(static_cast<std::size_t>(n));
         for (Eigen::Index i = 0; i < n; ++i)
-            volume += double(m.areas(i)) * m.normals.row(i).cast<double>().dot(pts.row(i).cast<double>() - c) / 3.0;
-        m.stats.inward = volume < 0;
-        if (m.stats.inward) m.normals = -m.normals;
-    }
-    std::vector<std::int32_t> order(static_cast<std::size_t>(n));
-    std::iota(order.begin(), order.end(), 0);
-    m.nodes.reserve(static_cast<std::size_t>(2 * n / kLeafSize + 16));
-    m.build(order, 0, static_cast<int>(n), pts);
-    m.sorted_points.resize(n, 3);
-    m.sorted_moments.resize(n, 3);
-    for (Eigen::Index i = 0; i < n; ++i) {
-        const std::int32_t p = order[static_cast<std::size_t>(i)];
-        m.sorted_points.row(i) = pts.row(p);
-        m.sorted_moments.row(i) = m.areas(p) * m.normals.row(p);
+            m.weak[static_cast<std::size_t>(i)] = std::abs(oriented.votes(i)) < options.normals.confident_vote;
+        m.weak_tau = static_cast<float>(options.labels_near_k * sampling_scale(cloud));
+        m.adopt(std::move(oriented), cloud);
+        // Where the winding number is unclear (a hole in the data: the middle of a bore whose wall
+        // the scanner missed sees the rest of the part around it), a cell the rays see outside is outside.
+        m.labels = labels;
     }
     m.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -198,12 +245,34 @@ void WindingSign::apply(const Eigen::Ref<const PointsF>& points, Eigen::Ref<Eige
     const Impl& m = *impl_;
     if (!m.options.enabled || m.nodes.empty()) return;
     PCP_CHECK(points.rows() == values.size(), "winding sign: " << points.rows() << " points but " << values.size() << " values");
-    const Eigen::VectorXf dist = m.cloud->kth_distance(points, 1);
+    // With the labels' normals, a sample whose nearest point took its orientation from its
+    // neighbours (a thin part seen from both sides) is decided only beyond labels_near_k.
+    Eigen::VectorXf dist;
+    std::vector<float> tau_of;
+    if (m.weak.empty()) {
+        dist = m.cloud->kth_distance(points, 1);
+    } else {
+        NeighborIndices idx;
+        NeighborDistances d2;
+        m.cloud->knn(points, 1, idx, d2);
+        dist = d2.col(0);
+        tau_of.resize(static_cast<std::size_t>(points.rows()));
+        for (Eigen::Index i = 0; i < points.rows(); ++i)
+            tau_of[static_cast<std::size_t>(i)] = m.weak[static_cast<std::size_t>(idx(i, 0))] ? m.weak_tau : static_cast<float>(m.stats.tau);
+    }
     const float tau = static_cast<float>(m.stats.tau), lo = static_cast<float>(0.5 - m.options.margin),
                 hi = static_cast<float>(0.5 + m.options.margin);
     std::int64_t changed = 0;
     for (Eigen::Index i = 0; i < points.rows(); ++i) {
-        if (dist(i) <= tau) continue;
+        if (dist(i) <= (tau_of.empty() ? tau : tau_of[static_cast<std::size_t>(i)])) continue;
+        // A cell the rays see outside is outside, whatever w (most of the grid: no tree walk).
+        if (!m.labels.label.empty() && m.labels.label_at(points.row(i).transpose().cast<double>()) > 0) {
+            if (values(i) < 0) {
+                values(i) = -values(i);
+                ++changed;
+            }
+            continue;
+        }
         const float w = m.winding_at(points.row(i).transpose());
         if ((w > hi && values(i) > 0) || (w < lo && values(i) < 0)) {
             values(i) = -values(i);

@@ -293,7 +293,13 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // (include/pcp/mesh/winding_sign.hpp); not in the scene mode: an open room has no inside.
     WindingSignOptions winding_options = options.winding_sign;
     if (options.scene.enabled) winding_options.enabled = false;
-    const WindingSign winding(level, cloud.tree(), winding_options);
+    // Oriented by which side the visibility labels see outside, when there are labels: the field
+    // orients too few points on every shared case (its negative shell around noisy data has no
+    // growth across the points, include/pcp/mesh/winding_sign.hpp). Where the labels cannot (thin
+    // parts seen from both sides: a table, a chair), by the field as before.
+    WindingSign winding;
+    if (winding_options.orient_by_labels && !labels.label.empty()) winding = WindingSign(labels, cloud.tree(), winding_options);
+    if (!winding.stats().by_labels || winding.stats().skipped) winding = WindingSign(level, cloud.tree(), winding_options);
     r.winding_sign = winding.stats();
     const SdfBatchFn oriented = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
         fitted(q, v);

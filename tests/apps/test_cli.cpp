@@ -337,7 +337,7 @@ TEST_CASE("cli: pcp_reconstruct's surface-fit, fine-repair and fair options: bad
     CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
 }
 
-TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, through-carve, shell-centre, recentre, smooth, winding-sign, sign-guide and label-votes options: bad values exit 2 naming the flag", "[cli]") {
+TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, through-carve, shell-centre, recentre, smooth, winding-sign, winding-normals, sign-guide and label-votes options: bad values exit 2 naming the flag", "[cli]") {
     const struct {
         const char* args;
         const char* message;
@@ -351,6 +351,7 @@ TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, through-carve, shell
         {"--smooth maybe", "--smooth must be auto, on or off (got 'maybe')"},
         {"--winding-sign 1", "--winding-sign must be on or off (got '1')"},
         {"--winding-near -3", "--winding-near must be in [0, 100]"},
+        {"--winding-normals mesh", "--winding-normals must be labels or field (got 'mesh')"},
         {"--sign-guide yes", "--sign-guide must be on or off (got 'yes')"},
         {"--label-votes -1", "--label-votes must be >= 0"},
     };
@@ -361,7 +362,7 @@ TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, through-carve, shell
         CHECK(r.err.find(c.message) != std::string::npos);
     }
     // Good values pass the option checks: the run then stops at the missing input, naming it.
-    const RunResult good = run(bin("pcp_reconstruct") + " --cavity-fill off --tunnel-fill off --bridge-cut off --through-carve off --shell-centre off --recentre on --smooth on --winding-sign on --winding-near 1 --sign-guide on --label-votes 4 /nonexistent/x.ply -o '" +
+    const RunResult good = run(bin("pcp_reconstruct") + " --cavity-fill off --tunnel-fill off --bridge-cut off --through-carve off --shell-centre off --recentre on --smooth on --winding-sign on --winding-near 1 --winding-normals field --sign-guide on --label-votes 4 /nonexistent/x.ply -o '" +
                                (case_dir("cavity_fill") / "o.ply").string() + "'");
     INFO("stderr: " << good.err);
     CHECK(good.exit_code == 1);

@@ -1,11 +1,15 @@
 // Tests for pcp/mesh/winding_sign.hpp: the Barnes-Hut winding number against brute force; normals
 // oriented outward by a field that is right only near the data; an inner sheet under a sphere and a
 // plug across a torus's hole removed by apply() while values near the data keep their sign; a field
-// of the opposite convention still gives outward normals; disabled and bad options.
+// of the opposite convention still gives outward normals; disabled and bad options; points oriented
+// by visibility labels (a sphere outward, a thin plate skipped) and the labels' outside where the
+// winding number is unclear (a bore whose wall the scan missed).
 #include "mc_test_util.hpp"
 #include "pcp/cloud/kdtree.hpp"
 #include "pcp/cloud/shapes.hpp"
+#include "pcp/cloud/visibility.hpp"
 #include "pcp/core/error.hpp"
+#include "pcp/core/rng.hpp"
 #include "pcp/mesh/marching_cubes.hpp"
 #include "pcp/mesh/mesh_check.hpp"
 #include "pcp/mesh/winding_sign.hpp"
@@ -13,6 +17,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <vector>
 
 using namespace pcp_test;
 
@@ -249,4 +254,138 @@ TEST_CASE("winding sign: a field that cannot orient the cloud is skipped on a sa
     o = on();
     o.precheck_slack = 1.5;
     CHECK_THROWS_AS(pcp::WindingSign(batch(sphere), tree, o), pcp::Error);
+}
+
+namespace {
+
+/// A washer (a thick tube) around the z axis: outer radius 0.4, bore radius 0.15, |z| <= 0.25,
+/// sampled evenly on its outer wall and end rings, and on its bore's wall only for |z| > gap: the
+/// bore's middle band is a hole in the scan. Returns the unit-box points.
+pcp::PointsF washer_with_unscanned_bore(double gap, std::uint64_t seed) {
+    constexpr double Ro = 0.4, Ri = 0.15, H = 0.25, kPi = 3.14159265358979323846;
+    const double density = 60000.0;  // points per unit area
+    pcp::Rng rng(seed, 1);
+    std::vector<Eigen::RowVector3f> pts;
+    auto add = [&](double x, double y, double z) { pts.emplace_back(float(x), float(y), float(z)); };
+    for (int i = 0, n = int(density * 2 * kPi * Ro * 2 * H); i < n; ++i) {
+        const double t = 2 * kPi * rng.uniform(), z = H * (2 * rng.uniform() - 1);
+        add(Ro * std::cos(t), Ro * std::sin(t), z);
+    }
+    for (int i = 0, n = int(density * 2 * kPi * Ri * 2 * (H - gap)); i < n; ++i) {
+        const double t = 2 * kPi * rng.uniform(), u = (H - gap) * (2 * rng.uniform() - 1);
+        add(Ri * std::cos(t), Ri * std::sin(t), u < 0 ? u - gap : u + gap);
+    }
+    for (int i = 0, n = int(density * kPi * (Ro * Ro - Ri * Ri)); i < 2 * n; ++i) {
+        const double t = 2 * kPi * rng.uniform(), r = std::sqrt(Ri * Ri + (Ro * Ro - Ri * Ri) * rng.uniform());
+        add(r * std::cos(t), r * std::sin(t), i < n ? H : -H);
+    }
+    pcp::PointsF out(static_cast<Eigen::Index>(pts.size()), 3);
+    for (std::size_t i = 0; i < pts.size(); ++i) out.row(static_cast<Eigen::Index>(i)) = pts[i];
+    return out;
+}
+
+}  // namespace
+
+TEST_CASE("winding sign: points oriented by visibility labels face outward, a sphere's inside is 1", "[winding_sign]") {
+    const pcp::PointCloud c = pcp::sample_sphere(8000, 0.35, Eigen::Vector3d::Zero(), 5);
+    const pcp::KdTree tree(unit_points(c));
+    const pcp::VisibilityLabels labels = pcp::label_by_visibility(tree);
+    const pcp::WindingSign ws(labels, tree, on());
+    REQUIRE_FALSE(ws.stats().skipped);
+    CHECK(ws.stats().by_labels);
+    CHECK(ws.stats().confident > 6000);  // the labels see outside on one side of nearly every point
+    CHECK_FALSE(ws.stats().inward);
+    Eigen::Index outward = 0;
+    for (Eigen::Index i = 0; i < tree.size(); ++i) outward += ws.normals().row(i).dot(tree.points().row(i)) > 0;
+    CHECK(outward == tree.size());
+    pcp::PointsF q(2, 3);
+    q << 0.05, -0.1, 0.0, 0.6, 0.0, 0.0;
+    const Eigen::VectorXf w = ws.winding(q);
+    CHECK(w(0) == Approx(1.0).margin(0.05));
+    CHECK(std::abs(w(1)) < 0.05);
+}
+
+TEST_CASE("winding sign: a thin plate seen from both sides gives the labels no side, and is skipped", "[winding_sign]") {
+    pcp::Rng rng(3, 1);
+    pcp::PointsF pts(6000, 3);
+    for (Eigen::Index i = 0; i < pts.rows(); ++i)  // both faces of a 0.6 x 0.6 x 0.004 plate
+        pts.row(i) << float(0.6 * rng.uniform() - 0.3), float(0.6 * rng.uniform() - 0.3), i % 2 ? 0.002f : -0.002f;
+    const pcp::KdTree tree(pts);
+    const pcp::WindingSign ws(pcp::label_by_visibility(tree), tree, on());
+    CHECK(ws.stats().skipped);
+    CHECK(ws.stats().by_labels);
+    CHECK(ws.stats().confident < tree.size() / 10);
+    pcp::PointsF q(1, 3);
+    q << 0.0f, 0.0f, 0.2f;
+    Eigen::VectorXf v(1);
+    v << -1.0f;
+    ws.apply(q, v);
+    CHECK(v(0) == -1.0f);  // skipped: the identity
+    pcp::VisibilityLabels empty;
+    CHECK_THROWS_AS(pcp::WindingSign(empty, tree, on()), pcp::Error);
+}
+
+TEST_CASE("winding sign: a bore whose wall the scan missed is opened by the labels where the winding number is unclear",
+          "[winding_sign]") {
+    const pcp::PointsF pts = washer_with_unscanned_bore(0.07, 11);
+    const pcp::KdTree tree(pts);
+    const pcp::VisibilityLabels labels = pcp::label_by_visibility(tree);
+    const pcp::WindingSign ws(labels, tree, on());
+    REQUIRE_FALSE(ws.stats().skipped);
+    // The bore's middle (on the axis, in the unscanned band) and the solid between the walls.
+    pcp::PointsF q(4, 3);
+    q << 0.0f, 0.0f, 0.0f, 0.05f, 0.0f, 0.0f, 0.0f, -0.04f, 0.02f, 0.0f, 0.3f, 0.0f;
+    const Eigen::VectorXf w = ws.winding(q);
+    for (int i = 0; i < 3; ++i) {
+        INFO("bore point " << i << ": w = " << w(i) << ", label " << labels.label_at(q.row(i).transpose().cast<double>()));
+        CHECK(std::abs(w(i) - 0.5f) <= 0.2f);  // unclear: the missed wall leaves it half enclosed
+        CHECK(labels.label_at(q.row(i).transpose().cast<double>()) > 0);  // the lines along the bore are free
+    }
+    CHECK(w(3) > 0.7f);  // inside the material: clear
+    // A field that plugs the bore (negative there) and is hollow in the material (positive there).
+    Eigen::VectorXf v(4);
+    v << -0.01f, -0.01f, -0.01f, 0.02f;
+    ws.apply(q, v);
+    CHECK(v(0) > 0);
+    CHECK(v(1) > 0);
+    CHECK(v(2) > 0);
+    CHECK(v(3) < 0);
+    CHECK(ws.corrected() == 4);
+}
+
+TEST_CASE("winding sign: near points the labels oriented by their neighbours only beyond labels_near_k", "[winding_sign]") {
+    // A ball with a thin fin: the fin's two faces see outside on both sides, their votes are weak
+    // and they take their orientation from the ball's points by the spread.
+    pcp::Rng rng(5, 1);
+    const pcp::PointCloud ball = pcp::sample_sphere(6000, 0.25, Eigen::Vector3d::Zero(), 4);
+    pcp::PointsF pts(6000 + 4000, 3);
+    pts.topRows(6000) = ball.points.cast<float>();
+    for (Eigen::Index i = 0; i < 4000; ++i)
+        pts.row(6000 + i) << float(0.24 + 0.22 * rng.uniform()), float(0.2 * rng.uniform() - 0.1), i % 2 ? 0.003f : -0.003f;
+    const pcp::KdTree tree(pts);
+    const pcp::VisibilityLabels labels = pcp::label_by_visibility(tree);
+    const pcp::WindingSign ws(labels, tree, on());
+    REQUIRE_FALSE(ws.stats().skipped);
+    const double scale = pcp::sampling_scale(tree);
+    // Over the fin at 0.7 sampling scales (beyond near_k 0.4, within labels_near_k 1) and at 1.5.
+    pcp::PointsF q(2, 3);
+    q << 0.4f, 0.0f, float(0.003 + 0.7 * scale), 0.4f, 0.0f, float(0.003 + 1.5 * scale);
+    const Eigen::VectorXf w = ws.winding(q);
+    INFO("w near the fin " << w(0) << ", farther " << w(1) << ", scale " << scale);
+    Eigen::VectorXf v(2);
+    v << -0.01f, -0.01f;  // a sheet of the field over the fin
+    const auto lo = static_cast<float>(0.5 - on().margin);
+    const Eigen::VectorXf before = v;
+    ws.apply(q, v);
+    CHECK(v(0) == before(0));  // within labels_near_k of a weakly oriented point: the field's sign
+    REQUIRE(w(1) < lo);
+    CHECK(v(1) > 0);  // farther, the clear winding number decides
+    // The same sample is decided at near_k when the fin's points are treated as the ball's.
+    pcp::WindingSignOptions same = on();
+    same.labels_near_k = same.near_k;
+    const pcp::WindingSign strict(labels, tree, same);
+    Eigen::VectorXf u = before;
+    strict.apply(q, u);
+    REQUIRE(w(0) < lo);
+    CHECK(u(0) > 0);
 }

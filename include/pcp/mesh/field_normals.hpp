@@ -17,6 +17,7 @@
 #pragma once
 
 #include "pcp/cloud/kdtree.hpp"
+#include "pcp/cloud/visibility.hpp"
 #include "pcp/core/types.hpp"
 #include "pcp/mesh/sdf_grid.hpp"
 
@@ -61,6 +62,14 @@ struct FieldNormals {
 /// negative inside). Throws pcp::Error on bad options, fewer than normal_k + 1 points, or a
 /// non-finite field value near the points.
 FieldNormals orient_normals_by_field(const SdfBatchFn& field, const KdTree& cloud, const FieldNormalsOptions& options = {});
+
+/// Orients the PCA normals of the tree's points by visibility labels over the same frame
+/// (pcp/cloud/visibility.hpp) instead of a field: a point's vote is the mean over probes at 1, 2, 3
+/// and 4 label cells along +n and -n of (label(p + t n) - label(p - t n)) / 2, so outside along +n
+/// and inside along -n votes 1, outside against unknown 0.5, and a thin part seen from both sides
+/// (outside on both) 0; weak votes are spread as in orient_normals_by_field. Normals point to the
+/// outside. Throws pcp::Error on bad options, an empty label grid or too few points.
+FieldNormals orient_normals_by_labels(const VisibilityLabels& labels, const KdTree& cloud, const FieldNormalsOptions& options = {});
 
 /// The fraction of the tree's points whose own vote is confident (|vote| >= confident_vote, as
 /// counted in FieldNormalsStats::confident), estimated on at most `max_points` of them, drawn

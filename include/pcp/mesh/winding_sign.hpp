@@ -6,11 +6,16 @@
 // inner sheet), a plug of "inside" across a through-hole, or a bubble. Those are decided here by a
 // global, hole-tolerant vote instead of a local one:
 //
-//  1. Oriented normals: the PCA normals of the input points oriented by the field's own votes
-//     (field_normals.hpp; where the field is right near the data, what the pulling loss trains,
-//     the vote gives the outward normal, whatever F does further away). When fewer than
-//     min_confident of the points vote confidently (a very noisy cloud, whose field is flat
-//     across the noise band) nothing is corrected (stats.skipped).
+//  1. Oriented normals: the PCA normals of the input points oriented by visibility labels
+//     (orient_normals_by_labels, field_normals.hpp: the side of a point whose label cells the rays
+//     see outside; the pipeline's default), or by the field's own votes (orient_normals_by_field:
+//     where the field is a signed distance near the data the vote gives the outward normal). The
+//     field is the weaker witness in practice: around noisy data it fits a thin negative shell with
+//     no growth across the points, and on every shared case fewer than half of them vote
+//     confidently (docs/BENCHMARKS.md, "The winding number of points oriented by visibility"),
+//     where the labels orient 81-88 % of the bunny's, fandisk's and the thick ABC parts' points.
+//     When fewer than min_confident of the points vote confidently (thin parts seen from both
+//     sides, a very noisy cloud) nothing is corrected (stats.skipped).
 //     When the oriented points enclose a negative volume (the field is negative outside), every
 //     normal is turned, so that w below is 1 inside whatever the field's convention.
 //  2. The generalised winding number of the oriented points (Barill et al. 2018, for point clouds):
@@ -22,7 +27,8 @@
 //     input point is given the sign the winding number says when it is clear (w > 0.5 + margin:
 //     inside, negative; w < 0.5 - margin: outside, positive); |F| is unchanged. Nearer the data, and
 //     where w is unclear, the field keeps its own sign, so the surface through the data stays where
-//     F puts it.
+//     F puts it; but with labels, a cell labelled outside is outside whatever w (a bore whose
+//     wall the scanner missed: the part around it makes its middle look half enclosed).
 #pragma once
 
 #include "pcp/cloud/kdtree.hpp"
@@ -41,6 +47,10 @@ struct WindingSignOptions {
     /// Off here (apply() is the identity, nothing is computed); the default and fast presets turn
     /// it on, the scene preset off (docs/BENCHMARKS.md, "The winding-number sign on").
     bool enabled = false;
+    /// pcp::reconstruct orients the points by its visibility labels when it has them (the label
+    /// vote's, on by default), else by the field (docs/BENCHMARKS.md, "The winding number of points
+    /// oriented by visibility").
+    bool orient_by_labels = true;
     FieldNormalsOptions normals;  ///< the PCA normals and the field's vote on their orientation (field_normals.hpp)
     double min_confident = 0.5;   ///< fewer confident points than this fraction: the field cannot orient the cloud, nothing is corrected
     /// The skip decided first on a sample: on a cloud of more than 2 x precheck_points points the
@@ -52,6 +62,11 @@ struct WindingSignOptions {
     int precheck_points = 2048;
     double precheck_slack = 0.05;
     double near_k = 0.4;    ///< tau in units of the sampling scale (0.4: about 1.5 spacings of an even sampling)
+    /// tau of the normals oriented by labels (1: 2.3 median spacings of a scan, 3.7 of an even
+    /// sampling): where they oriented thin parts by their neighbours, their flips within two
+    /// spacings of the data were right 80-87 % of the time, farther 97-100 % (docs/BENCHMARKS.md,
+    /// "The winding number of points oriented by visibility": a statue's ears got handles at 0.4).
+    double labels_near_k = 1.0;
     double margin = 0.2;    ///< the winding number decides where |w - 0.5| > margin (0..0.5)
     double opening = 3.0;   ///< Barnes-Hut: a node is one dipole when its distance > opening x its radius (>= 1)
 };
@@ -63,6 +78,7 @@ struct WindingSignStats {
     std::int64_t sampled = 0;            ///< skipped on a sample of this many points (confident: its estimate over all points); 0: counted on all
     std::int64_t weak_orientation = 0;   ///< of which oriented by their neighbours (their own vote below confident_vote)
     std::int64_t against_own_vote = 0;   ///< of which oriented against the sign of their own vote
+    bool by_labels = false;              ///< the normals were oriented by visibility labels (else by the field)
     bool inward = false;                 ///< the field oriented the normals inward (negative outside): all were turned
     double tau = 0;                      ///< the distance beyond which the winding number decides
     double seconds = 0;                  ///< normals, orientation and tree
@@ -76,6 +92,17 @@ public:
     /// inside) and builds the winding-number tree. `cloud`: the input in the same frame, N >= normal_k + 1.
     /// Throws pcp::Error on bad options, too few points or a non-finite field value.
     WindingSign(const SdfBatchFn& field, const KdTree& cloud, const WindingSignOptions& options = {});
+    /// The same with the normals oriented by visibility labels over the cloud's frame instead of a
+    /// field (orient_normals_by_labels in field_normals.hpp; the pipeline's default): skipped when
+    /// fewer than min_confident of the points have a confident vote of their own. apply() then
+    /// makes positive every value away from the data in a cell labelled outside, without the
+    /// winding number: the middle of a bore whose wall the scanner missed, which the rest of the
+    /// part around it makes look half enclosed (w unclear, or above 0.5 + margin: on abc_00011084
+    /// 411 of 1.67 million such samples, and those w made inside lay outside the GT, 19 of 19 in
+    /// a sample of 20,000 flips); and it decides near a point
+    /// whose vote was weak (oriented by its neighbours) only beyond labels_near_k. The labels are
+    /// copied. Throws pcp::Error on bad options, empty labels or too few points.
+    WindingSign(const VisibilityLabels& labels, const KdTree& cloud, const WindingSignOptions& options = {});
     ~WindingSign();
     WindingSign(WindingSign&&) noexcept;
     WindingSign& operator=(WindingSign&&) noexcept;
