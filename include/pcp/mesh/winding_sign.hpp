@@ -13,7 +13,7 @@
 //     field is the weaker witness in practice: around noisy data it fits a thin negative shell with
 //     no growth across the points, and on every shared case fewer than half of them vote
 //     confidently (docs/BENCHMARKS.md, "The winding number of points oriented by visibility"),
-//     where the labels orient 81-88 % of the bunny's, fandisk's and the thick ABC parts' points.
+//     where the labels orient 69-88 % of the points of the bunny, fandisk and the scans whose parts are thick.
 //     When fewer than min_confident of the points vote confidently (thin parts seen from both
 //     sides, a very noisy cloud) nothing is corrected (stats.skipped).
 //     When the oriented points enclose a negative volume (the field is negative outside), every
