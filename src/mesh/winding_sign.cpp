@@ -58,7 +58,7 @@ struct WindingSign::Impl {
     WindingSignStats stats;
     std::vector<std::uint8_t> weak;  ///< per point: oriented by its neighbours (labels' normals only; else empty)
     float weak_tau = 0;              ///< tau around those points (labels_near_k)
-    VisibilityLabels labels;  ///< the labels of the constructor from labels (empty otherwise): apply()'s outside where w is unclear
+    VisibilityLabels labels;  ///< the labels of the constructor from labels (empty otherwise): apply() makes their outside cells outside
     mutable std::atomic<std::int64_t> corrected{0};
 
     int build(std::vector<std::int32_t>& order, int begin, int end, const PointsF& pts) {

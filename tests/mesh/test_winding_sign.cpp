@@ -209,6 +209,10 @@ TEST_CASE("winding sign: disabled is the identity, bad options throw", "[winding
     bad = on();
     bad.near_k = -1;
     CHECK_THROWS_AS(pcp::WindingSign(f, tree, bad), pcp::Error);
+    bad = on();
+    bad.labels_near_k = -1;
+    CHECK_THROWS_AS(pcp::WindingSign(f, tree, bad), pcp::Error);
+    CHECK_THROWS_AS(pcp::WindingSign(pcp::label_by_visibility(tree), tree, bad), pcp::Error);
     const pcp::PointCloud few = pcp::sample_sphere(10, 0.3, Eigen::Vector3d::Zero(), 1);
     const pcp::KdTree small(unit_points(few));
     CHECK_THROWS_AS(pcp::WindingSign(f, small, on()), pcp::Error);
