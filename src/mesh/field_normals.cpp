@@ -197,7 +197,12 @@ void check_field_normals_options(const FieldNormalsOptions& o, const char* what)
     PCP_CHECK(o.confident_vote >= 0 && std::isfinite(o.confident_vote), what << ": confident_vote must be >= 0");
 }
 
-FieldNormals orient_normals_by_field(const SdfBatchFn& field, const KdTree& cloud, const FieldNormalsOptions& options) {
+namespace {
+
+/// The PCA normals of the tree's points oriented by `vote(points, normals, thickness)` (N votes, 1
+/// along the normal): the common part of orient_normals_by_field and orient_normals_by_labels.
+template <class Vote>
+FieldNormals orient_normals_by_votes(const KdTree& cloud, const FieldNormalsOptions& options, Vote&& vote) {
     check_field_normals_options(options, "oriented normals");
     PCP_CHECK(cloud.size() > options.normal_k,
               "oriented normals: the cloud has " << cloud.size() << " points; normal_k = " << options.normal_k << " needs more");
@@ -207,7 +212,7 @@ FieldNormals orient_normals_by_field(const SdfBatchFn& field, const KdTree& clou
     const Eigen::Index n = pts.rows();
     out.stats.points = n;
     out.normals = pca_normals(cloud, options.normal_k, out.neighbours, out.thickness);
-    out.votes = field_votes(field, pts, out.normals, out.thickness, sampling_scale(cloud), options);
+    out.votes = vote(pts, out.normals, out.thickness);
     for (Eigen::Index i = 0; i < n; ++i) out.stats.confident += std::abs(out.votes(i)) >= options.confident_vote;
     std::vector<std::int8_t> sign;
     out.stats.weak_orientation = orient_by_votes(out.normals, out.neighbours, out.votes, options.confident_vote, sign);
@@ -219,38 +224,32 @@ FieldNormals orient_normals_by_field(const SdfBatchFn& field, const KdTree& clou
     return out;
 }
 
+}  // namespace
+
+FieldNormals orient_normals_by_field(const SdfBatchFn& field, const KdTree& cloud, const FieldNormalsOptions& options) {
+    return orient_normals_by_votes(cloud, options, [&](const PointsF& pts, const PointsF& normals, const Eigen::VectorXf& thickness) {
+        return field_votes(field, pts, normals, thickness, sampling_scale(cloud), options);
+    });
+}
+
 FieldNormals orient_normals_by_labels(const VisibilityLabels& labels, const KdTree& cloud, const FieldNormalsOptions& options) {
-    check_field_normals_options(options, "oriented normals");
     PCP_CHECK(!labels.label.empty() && labels.cell > 0, "oriented normals: the visibility labels are empty");
-    PCP_CHECK(cloud.size() > options.normal_k,
-              "oriented normals: the cloud has " << cloud.size() << " points; normal_k = " << options.normal_k << " needs more");
-    const auto t0 = std::chrono::steady_clock::now();
-    FieldNormals out;
-    const PointsF& pts = cloud.points();
-    const Eigen::Index n = pts.rows();
-    out.stats.points = n;
-    out.normals = pca_normals(cloud, options.normal_k, out.neighbours, out.thickness);
-    out.votes.resize(n);
-    constexpr int kProbes = 4;
+    return orient_normals_by_votes(cloud, options, [&](const PointsF& pts, const PointsF& normals, const Eigen::VectorXf&) {
+        // The mean over probes at 1..4 label cells of (label(p + t n) - label(p - t n)) / 2.
+        constexpr int kProbes = 4;
+        Eigen::VectorXd votes(pts.rows());
 #pragma omp parallel for schedule(static)
-    for (Eigen::Index i = 0; i < n; ++i) {
-        const Eigen::Vector3d p = pts.row(i).transpose().cast<double>(), nn = out.normals.row(i).transpose().cast<double>();
-        double vote = 0;
-        for (int s = 1; s <= kProbes; ++s) {
-            const double t = s * labels.cell;
-            vote += 0.5 * double(labels.label_at(p + t * nn) - labels.label_at(p - t * nn));
+        for (Eigen::Index i = 0; i < pts.rows(); ++i) {
+            const Eigen::Vector3d p = pts.row(i).transpose().cast<double>(), nn = normals.row(i).transpose().cast<double>();
+            double vote = 0;
+            for (int s = 1; s <= kProbes; ++s) {
+                const double t = s * labels.cell;
+                vote += 0.5 * double(labels.label_at(p + t * nn) - labels.label_at(p - t * nn));
+            }
+            votes(i) = vote / kProbes;
         }
-        out.votes(i) = vote / kProbes;
-    }
-    for (Eigen::Index i = 0; i < n; ++i) out.stats.confident += std::abs(out.votes(i)) >= options.confident_vote;
-    std::vector<std::int8_t> sign;
-    out.stats.weak_orientation = orient_by_votes(out.normals, out.neighbours, out.votes, options.confident_vote, sign);
-    for (Eigen::Index i = 0; i < n; ++i) {
-        if (sign[static_cast<std::size_t>(i)] < 0) out.normals.row(i) = -out.normals.row(i);
-        if (double(sign[static_cast<std::size_t>(i)]) * out.votes(i) < 0) ++out.stats.against_own_vote;
-    }
-    out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return out;
+        return votes;
+    });
 }
 
 double confident_vote_fraction(const SdfBatchFn& field, const KdTree& cloud, const FieldNormalsOptions& options,

@@ -96,6 +96,18 @@ struct WindingSign::Impl {
         return id;
     }
 
+    /// The constructors' common start: the options checked and kept; false when disabled (the
+    /// identity), else the cloud, its size and tau recorded.
+    bool start(const WindingSignOptions& o, const KdTree& tree) {
+        options = o;
+        check_options(o);
+        if (!o.enabled) return false;
+        cloud = &tree;
+        stats.points = tree.size();
+        stats.tau = o.near_k * sampling_scale(tree);
+        return true;
+    }
+
     /// Step 2 from oriented normals: the areas, the enclosed volume's sign and the Barnes-Hut tree.
     void adopt(FieldNormals oriented, const KdTree& tree) {
         const PointsF& pts = tree.points();
@@ -164,16 +176,9 @@ WindingSign& WindingSign::operator=(WindingSign&&) noexcept = default;
 WindingSign::WindingSign(const SdfBatchFn& field, const KdTree& cloud, const WindingSignOptions& options)
     : impl_(std::make_unique<Impl>()) {
     Impl& m = *impl_;
-    m.options = options;
-    check_options(options);
-    if (!options.enabled) return;
     const auto t0 = std::chrono::steady_clock::now();
-    m.cloud = &cloud;
-    const PointsF& pts = cloud.points();
-    const Eigen::Index n = pts.rows();
-    const double scale = sampling_scale(cloud);
-    m.stats.points = n;
-    m.stats.tau = options.near_k * scale;
+    if (!m.start(options, cloud)) return;
+    const Eigen::Index n = cloud.size();
 
     // 0. A sample first: a cloud the field clearly cannot orient is skipped at a fraction of the cost.
     if (options.precheck_points > 0 && n > 2 * Eigen::Index(options.precheck_points)) {
@@ -204,14 +209,9 @@ WindingSign::WindingSign(const SdfBatchFn& field, const KdTree& cloud, const Win
 WindingSign::WindingSign(const VisibilityLabels& labels, const KdTree& cloud, const WindingSignOptions& options)
     : impl_(std::make_unique<Impl>()) {
     Impl& m = *impl_;
-    m.options = options;
-    check_options(options);
-    if (!options.enabled) return;
     const auto t0 = std::chrono::steady_clock::now();
-    m.cloud = &cloud;
+    if (!m.start(options, cloud)) return;
     const Eigen::Index n = cloud.size();
-    m.stats.points = n;
-    m.stats.tau = options.near_k * sampling_scale(cloud);
     m.stats.by_labels = true;
     // 1. PCA normals, oriented by which side the labels see outside (field_normals.hpp).
     FieldNormals oriented = orient_normals_by_labels(labels, cloud, options.normals);
