@@ -56,9 +56,12 @@ struct WindingSign::Impl {
     std::vector<Node> nodes;
     PointsF sorted_points, sorted_moments;
     WindingSignStats stats;
-    std::vector<std::uint8_t> weak;  ///< per point: oriented by its neighbours (labels' normals only; else empty)
-    float weak_tau = 0;              ///< tau around those points (labels_near_k)
-    VisibilityLabels labels;  ///< the labels of the constructor from labels (empty otherwise): apply() makes their outside cells outside
+    /// Per point, the distance within which the field keeps its sign: labels_near_k scales around a
+    /// point the labels' spread oriented, tau around the others (labels' normals only; empty: tau).
+    std::vector<float> reach;
+    /// The label grid of the constructor from labels (empty otherwise; without its cell lists):
+    /// apply() makes its outside cells outside.
+    VisibilityLabels labels;
     mutable std::atomic<std::int64_t> corrected{0};
 
     int build(std::vector<std::int32_t>& order, int begin, int end, const PointsF& pts) {
@@ -221,14 +224,18 @@ WindingSign::WindingSign(const VisibilityLabels& labels, const KdTree& cloud, co
         // cloud too small for the label cells): the orientation would be a guess.
         m.stats.skipped = true;
     } else {
-        m.weak.resize(static_cast<std::size_t>(n));
+        const auto weak_reach = static_cast<float>(options.labels_near_k * sampling_scale(cloud));
+        m.reach.resize(static_cast<std::size_t>(n));
         for (Eigen::Index i = 0; i < n; ++i)
-            m.weak[static_cast<std::size_t>(i)] = std::abs(oriented.votes(i)) < options.normals.confident_vote;
-        m.weak_tau = static_cast<float>(options.labels_near_k * sampling_scale(cloud));
+            m.reach[static_cast<std::size_t>(i)] =
+                std::abs(oriented.votes(i)) < options.normals.confident_vote ? weak_reach : static_cast<float>(m.stats.tau);
         m.adopt(std::move(oriented), cloud);
-        // Where the winding number is unclear (a hole in the data: the middle of a bore whose wall
-        // the scanner missed sees the rest of the part around it), a cell the rays see outside is outside.
-        m.labels = labels;
+        // A cell the rays see outside is outside, whatever w: the middle of a bore whose wall the
+        // scanner missed sees the rest of the part around it.
+        m.labels.origin = labels.origin;
+        m.labels.cell = labels.cell;
+        m.labels.dims = labels.dims;
+        m.labels.label = labels.label;
     }
     m.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -247,24 +254,14 @@ void WindingSign::apply(const Eigen::Ref<const PointsF>& points, Eigen::Ref<Eige
     PCP_CHECK(points.rows() == values.size(), "winding sign: " << points.rows() << " points but " << values.size() << " values");
     // With the labels' normals, a sample whose nearest point took its orientation from its
     // neighbours (a thin part seen from both sides) is decided only beyond labels_near_k.
-    Eigen::VectorXf dist;
-    std::vector<float> tau_of;
-    if (m.weak.empty()) {
-        dist = m.cloud->kth_distance(points, 1);
-    } else {
-        NeighborIndices idx;
-        NeighborDistances d2;
-        m.cloud->knn(points, 1, idx, d2);
-        dist = d2.col(0);
-        tau_of.resize(static_cast<std::size_t>(points.rows()));
-        for (Eigen::Index i = 0; i < points.rows(); ++i)
-            tau_of[static_cast<std::size_t>(i)] = m.weak[static_cast<std::size_t>(idx(i, 0))] ? m.weak_tau : static_cast<float>(m.stats.tau);
-    }
+    NeighborIndices nearest;
+    NeighborDistances dist;
+    m.cloud->knn(points, 1, nearest, dist);
     const float tau = static_cast<float>(m.stats.tau), lo = static_cast<float>(0.5 - m.options.margin),
                 hi = static_cast<float>(0.5 + m.options.margin);
     std::int64_t changed = 0;
     for (Eigen::Index i = 0; i < points.rows(); ++i) {
-        if (dist(i) <= (tau_of.empty() ? tau : tau_of[static_cast<std::size_t>(i)])) continue;
+        if (dist(i, 0) <= (m.reach.empty() ? tau : m.reach[static_cast<std::size_t>(nearest(i, 0))])) continue;
         // A cell the rays see outside is outside, whatever w (most of the grid: no tree walk).
         if (!m.labels.label.empty() && m.labels.label_at(points.row(i).transpose().cast<double>()) > 0) {
             if (values(i) < 0) {
