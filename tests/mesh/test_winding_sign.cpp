@@ -371,19 +371,23 @@ TEST_CASE("winding sign: near points the labels oriented by their neighbours onl
     const pcp::WindingSign ws(labels, tree, on());
     REQUIRE_FALSE(ws.stats().skipped);
     const double scale = pcp::sampling_scale(tree);
-    // Over the fin at 0.7 sampling scales (beyond near_k 0.4, within labels_near_k 1) and at 1.5.
-    pcp::PointsF q(2, 3);
-    q << 0.4f, 0.0f, float(0.003 + 0.7 * scale), 0.4f, 0.0f, float(0.003 + 1.5 * scale);
+    // Over the fin at 0.7 sampling scales (beyond near_k 0.4, within labels_near_k 0.8), at 0.9
+    // (just beyond it: a layer the field left there is corrected) and at 1.5.
+    pcp::PointsF q(3, 3);
+    q << 0.4f, 0.0f, float(0.003 + 0.7 * scale), 0.4f, 0.0f, float(0.003 + 1.5 * scale), 0.4f, 0.0f,
+        float(0.003 + 0.9 * scale);
     const Eigen::VectorXf w = ws.winding(q);
-    INFO("w near the fin " << w(0) << ", farther " << w(1) << ", scale " << scale);
-    Eigen::VectorXf v(2);
-    v << -0.01f, -0.01f;  // a sheet of the field over the fin
+    INFO("w near the fin " << w(0) << ", farther " << w(1) << ", at 0.9 scales " << w(2) << ", scale " << scale);
+    Eigen::VectorXf v(3);
+    v << -0.01f, -0.01f, -0.01f;  // a sheet of the field over the fin
     const auto lo = static_cast<float>(0.5 - on().margin);
     const Eigen::VectorXf before = v;
     ws.apply(q, v);
     CHECK(v(0) == before(0));  // within labels_near_k of a weakly oriented point: the field's sign
     REQUIRE(w(1) < lo);
     CHECK(v(1) > 0);  // farther, the clear winding number decides
+    REQUIRE(w(2) < lo);
+    CHECK(v(2) > 0);  // and already at 0.9 scales
     // The same sample is decided at near_k when the fin's points are treated as the ball's.
     pcp::WindingSignOptions same = on();
     same.labels_near_k = same.near_k;

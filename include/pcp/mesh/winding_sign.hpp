@@ -62,11 +62,14 @@ struct WindingSignOptions {
     int precheck_points = 2048;
     double precheck_slack = 0.05;
     double near_k = 0.4;    ///< tau in units of the sampling scale (0.4: about 1.5 spacings of an even sampling)
-    /// tau of the normals oriented by labels (1: 2.3 median spacings of a scan, 3.7 of an even
-    /// sampling): where they oriented thin parts by their neighbours, their flips within two
-    /// spacings of the data were right 80-87 % of the time, farther 97-100 % (docs/BENCHMARKS.md,
-    /// "The winding number of points oriented by visibility": a statue's ears got handles at 0.4).
-    double labels_near_k = 1.0;
+    /// tau near the points the labels' spread oriented (0.8: about 1.8 median spacings of a scan,
+    /// 3 of an even sampling): where they oriented thin parts by their neighbours, their flips
+    /// within two spacings of the data were right 80-87 % of the time, farther 97-100 %
+    /// (docs/BENCHMARKS.md, "The winding number of points oriented by visibility": a statue's ears
+    /// got handles at 0.4). At 1.0 a positive layer the field leaves under a face of a thin part
+    /// stayed, open to the air by pinholes (fandisk's genus 0 -> 2; "A pinhole closed: the reach
+    /// near thin parts 0.8"); 0.6 and 0.8 keep both whole.
+    double labels_near_k = 0.8;
     double margin = 0.2;    ///< the winding number decides where |w - 0.5| > margin (0..0.5)
     double opening = 3.0;   ///< Barnes-Hut: a node is one dipole when its distance > opening x its radius (>= 1)
 };
@@ -100,7 +103,8 @@ public:
     /// part around it makes look half enclosed (w unclear, or above 0.5 + margin: on abc_00011084
     /// 411 of 1.67 million such samples, and those w made inside lay outside the GT, 19 of 19 in
     /// a sample of 20,000 flips); and it decides near a point
-    /// whose vote was weak (oriented by its neighbours) only beyond labels_near_k. The labels are
+    /// whose vote was weak (oriented by its neighbours) only beyond labels_near_k (0.8 sampling
+    /// scales; tau elsewhere). The labels are
     /// copied. Throws pcp::Error on bad options, empty labels or too few points.
     WindingSign(const VisibilityLabels& labels, const KdTree& cloud, const WindingSignOptions& options = {});
     ~WindingSign();
