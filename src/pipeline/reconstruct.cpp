@@ -1,7 +1,7 @@
 // The reconstruction pipeline (see pcp/reconstruct.hpp): denoise (optional) -> one PreparedCloud
 // -> prior (given, resumed beside the checkpoint, or trained on the cloud) -> query-network fit ->
 // sign decision on the grid box's boundary (samples there lie outside the shape: if most are
-// negative, the field is negated) -> winding-number sign away from the data -> sign repair -> grid
+// negative, the field is negated) -> sign repair -> winding-number sign away from the data -> grid
 // (narrow band, or dense for the cavity fill) -> cavity fill -> fine sign repair ->
 // marching cubes -> surface fit (components away from the data removed, vertices moved onto the
 // data) -> bilateral smoothing (noisy clouds) -> input frame. Every mesh stage sees F_g - iso and works at level 0.
@@ -301,12 +301,12 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     if (winding_options.orient_by_labels && !labels.label.empty()) winding = WindingSign(labels, cloud.tree(), winding_options);
     if (!winding.stats().by_labels || winding.stats().skipped) winding = WindingSign(level, cloud.tree(), winding_options);
     r.winding_sign = winding.stats();
-    const SdfBatchFn oriented = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
-        fitted(q, v);
-        winding.apply(q, v);
-    };
     // Regions whose sign the data does not support are flipped (include/pcp/mesh/sign_repair.hpp);
-    // the coarse grid is never finer than the fine one.
+    // the coarse grid is never finer than the fine one. The repair sees the fitted field, and the
+    // winding number corrects its result: the other way round, the winding number's flips near a
+    // wall (right ones: a noisy wall made solid) joined the field's plug of a barely scanned bore
+    // to the wall's solid, and the repair, which flips a region the data does not bound, kept the
+    // plug (abc_00011084 seed 1; docs/BENCHMARKS.md, "The sign repair before the winding number").
     so.resolution = std::min(so.resolution, options.resolution);
     // The coarse grid's values are kept for the fine grid's samples at the same points (only for a
     // resolution the repair accepts: it reports any other itself).
@@ -316,12 +316,13 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
         coarse_spec.resolution = so.resolution;
         memo.emplace(coarse_spec);
     }
-    const SignRepair repair(memo ? memo->recording(oriented) : oriented, spec.box, cloud.tree(), so, &labels);
+    const SignRepair repair(memo ? memo->recording(fitted) : fitted, spec.box, cloud.tree(), so, &labels);
     r.sign_repair = repair.stats();
-    const SdfBatchFn oriented_fine = memo ? memo->reusing(oriented) : oriented;
+    const SdfBatchFn fitted_fine = memo ? memo->reusing(fitted) : fitted;
     const SdfBatchFn field = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
-        oriented_fine(q, v);
+        fitted_fine(q, v);
         repair.apply(q, v);
+        winding.apply(q, v);
     };
     SdfGridOptions go = options.grid;
     go.progress = chain(go.progress, options.progress);
