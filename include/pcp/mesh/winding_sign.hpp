@@ -29,6 +29,10 @@
 //     where w is unclear, the field keeps its own sign, so the surface through the data stays where
 //     F puts it; but with labels, a cell labelled outside is outside whatever w (a bore whose
 //     wall the scanner missed: the part around it makes its middle look half enclosed).
+//
+// The pipeline applies it to the sign repair's result, not before the repair: the repair's regions
+// are the fitted field's (src/pipeline/reconstruct.cpp; docs/BENCHMARKS.md, "The sign repair before
+// the winding number").
 #pragma once
 
 #include "pcp/cloud/kdtree.hpp"
@@ -67,8 +71,8 @@ struct WindingSignOptions {
     /// within two spacings of the data were right 80-87 % of the time, farther 97-100 %
     /// (docs/BENCHMARKS.md, "The winding number of points oriented by visibility": a statue's ears
     /// got handles at 0.4). At 1.0 a positive layer the field leaves under a face of a thin part
-    /// stayed, open to the air by pinholes (fandisk's genus 0 -> 2; "A pinhole closed: the reach
-    /// near thin parts 0.8"); 0.6 and 0.8 keep both whole.
+    /// stayed, open to the air by pinholes (fandisk's genus 0 -> 2; "The sign repair before the
+    /// winding number; the reach near thin parts 0.8"); 0.6 and 0.8 keep both whole.
     double labels_near_k = 0.8;
     double margin = 0.2;    ///< the winding number decides where |w - 0.5| > margin (0..0.5)
     double opening = 3.0;   ///< Barnes-Hut: a node is one dipole when its distance > opening x its radius (>= 1)
