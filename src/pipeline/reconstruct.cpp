@@ -303,10 +303,11 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     r.winding_sign = winding.stats();
     // Regions whose sign the data does not support are flipped (include/pcp/mesh/sign_repair.hpp);
     // the coarse grid is never finer than the fine one. The repair sees the fitted field, and the
-    // winding number corrects its result: the other way round, the winding number's flips near a
-    // wall (right ones: a noisy wall made solid) joined the field's plug of a barely scanned bore
-    // to the wall's solid, and the repair, which flips a region the data does not bound, kept the
-    // plug (abc_00011084 seed 1; docs/BENCHMARKS.md, "The sign repair before the winding number").
+    // winding number corrects its result but for the regions the repair opened: the other way
+    // round, the winding number's flips near a wall (right ones: a noisy wall made solid) joined
+    // the field's plug of a barely scanned bore to the wall's solid, and the repair, which flips a
+    // region the data does not bound, kept the plug (abc_00011084 seed 1; docs/BENCHMARKS.md, "The
+    // sign repair before the winding number").
     so.resolution = std::min(so.resolution, options.resolution);
     // The coarse grid's values are kept for the fine grid's samples at the same points (only for a
     // resolution the repair accepts: it reports any other itself).
@@ -321,8 +322,15 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     const SdfBatchFn fitted_fine = memo ? memo->reusing(fitted) : fitted;
     const SdfBatchFn field = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
         fitted_fine(q, v);
+        const Eigen::VectorXf raw = v;
         repair.apply(q, v);
+        const Eigen::VectorXf repaired = v;
         winding.apply(q, v);
+        // A region the repair opened (made outside) stays open: the winding number, high in a bore
+        // the scan left half enclosed, would close parts of it again, slivers that the fairing
+        // drew into needles at 256 cells (tests/realdata, abc_00016513).
+        for (Eigen::Index i = 0; i < v.size(); ++i)
+            if (raw(i) < 0 && repaired(i) > 0 && v(i) < 0) v(i) = repaired(i);
     };
     SdfGridOptions go = options.grid;
     go.progress = chain(go.progress, options.progress);
