@@ -250,7 +250,7 @@ Eigen::VectorXf WindingSign::winding(const Eigen::Ref<const PointsF>& points) co
 
 void WindingSign::apply(const Eigen::Ref<const PointsF>& points, Eigen::Ref<Eigen::VectorXf> values) const {
     const Impl& m = *impl_;
-    if (!m.options.enabled || m.nodes.empty()) return;
+    if (!active()) return;
     PCP_CHECK(points.rows() == values.size(), "winding sign: " << points.rows() << " points but " << values.size() << " values");
     // With the labels' normals, a sample whose nearest point took its orientation from its
     // neighbours (a thin part seen from both sides) is decided only beyond labels_near_k.
@@ -282,6 +282,7 @@ void WindingSign::apply(const Eigen::Ref<const PointsF>& points, Eigen::Ref<Eige
 const PointsF& WindingSign::normals() const { return impl_->normals; }
 const Eigen::VectorXf& WindingSign::areas() const { return impl_->areas; }
 const WindingSignStats& WindingSign::stats() const { return impl_->stats; }
+bool WindingSign::active() const { return impl_->options.enabled && !impl_->nodes.empty(); }
 std::int64_t WindingSign::corrected() const { return impl_->corrected.load(); }
 
 Eigen::VectorXf winding_number_brute_force(const Eigen::Ref<const PointsF>& points, const Eigen::Ref<const PointsF>& normals,

@@ -320,8 +320,13 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     const SignRepair repair(memo ? memo->recording(fitted) : fitted, spec.box, cloud.tree(), so, &labels);
     r.sign_repair = repair.stats();
     const SdfBatchFn fitted_fine = memo ? memo->reusing(fitted) : fitted;
+    const bool winding_active = winding.active();
     const SdfBatchFn field = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) {
         fitted_fine(q, v);
+        if (!winding_active) {  // skipped or off (most scans, scenes): no copies per batch
+            repair.apply(q, v);
+            return;
+        }
         const Eigen::VectorXf raw = v;
         repair.apply(q, v);
         const Eigen::VectorXf repaired = v;

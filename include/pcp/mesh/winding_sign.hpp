@@ -128,6 +128,8 @@ public:
     const Eigen::VectorXf& areas() const;
 
     const WindingSignStats& stats() const;
+    /// Whether apply() can change a value: enabled, and the points oriented (not skipped).
+    bool active() const;
     /// Field values whose sign apply() changed so far (all threads).
     std::int64_t corrected() const;
 
