@@ -61,9 +61,13 @@ double LrSchedule::at(std::int64_t step) const {
             return lr;
         case Kind::Cosine: {
             const std::int64_t start = std::max(warmup_steps, decay_start);
-            if (step < start) return lr;
+            double t = double(step);  // the step on the uncompressed schedule
+            if (compress_from >= 0 && step > compress_from && compress_to > compress_from && total_steps > compress_from)
+                t = double(compress_from) + double(step - compress_from) * double(total_steps - compress_from) /
+                                                double(compress_to - compress_from);
+            if (t < double(start)) return lr;
             const double span = double(std::max<std::int64_t>(total_steps - start, 1));
-            const double x = std::min(1.0, double(step - start) / span);
+            const double x = std::min(1.0, (t - double(start)) / span);
             return final_lr + 0.5 * (lr - final_lr) * (1.0 + std::cos(3.14159265358979323846 * x));
         }
     }

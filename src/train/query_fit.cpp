@@ -105,13 +105,23 @@ struct QueryNetFitter::Impl {
     PointsF guide_points;
     Eigen::VectorXf guide_values;
 
-    /// The rate: the peak until `start`, then cosine to 0.02 x the peak at `end`.
+    nn::LrSchedule base_lr;  ///< the schedule's own rate (make_optim), before the stop rule's end
+
+    /// The stop rule's end: a plateau at `start`, the fit ends at `end`. A cosine schedule runs the
+    /// rest of its decay in start .. end (nn::LrSchedule::compress_from); a constant one decays
+    /// from there (cosine to 0.02 x the rate at `end`).
     void set_cooldown(std::int64_t start, std::int64_t end) {
         nn::LrSchedule& lr = trainer->options.lr;
-        lr.kind = nn::LrSchedule::Kind::Cosine;
-        lr.final_lr = 0.02 * lr.lr;
-        lr.decay_start = start;
-        lr.total_steps = end;
+        lr = base_lr;
+        if (base_lr.kind == nn::LrSchedule::Kind::Cosine) {
+            lr.compress_from = start;
+            lr.compress_to = end;
+        } else {
+            lr.kind = nn::LrSchedule::Kind::Cosine;
+            lr.final_lr = 0.02 * lr.lr;
+            lr.decay_start = start;
+            lr.total_steps = end;
+        }
     }
 
     /// The stop rule after the step that ended with `done` steps and had loss `loss`.
@@ -274,12 +284,16 @@ void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_
     m.trainer->workspace.guide_weight = static_cast<float>(opts.sign_guide.weight);
     m.trainer->batch_parts = opts.batch_parts;
     m.stop.end = opts.steps;
+    m.base_lr = m.trainer->options.lr;
     if (opts.stop.enabled) {
         const StopRule& rule = opts.stop;
         PCP_CHECK(rule.window >= 1 && rule.tolerance >= 0.0 && rule.min_steps >= 0 && rule.cooldown_fraction >= 0.0 &&
                       rule.min_cooldown >= 1,
                   "query fitting: the stop rule needs window >= 1, min_cooldown >= 1 and non-negative settings");
-        m.set_cooldown(std::max<std::int64_t>(sched.warmup_steps, opts.steps - rule.min_cooldown), opts.steps);
+        // A constant rate: the peak until a plateau; without one, the cooldown ends at the cap.
+        if (m.base_lr.kind != nn::LrSchedule::Kind::Cosine) {
+            m.set_cooldown(std::max<std::int64_t>(sched.warmup_steps, opts.steps - rule.min_cooldown), opts.steps);
+        }
     }
     if (opts.ablation == QueryAblation::FreeCode) {  // DeepSDF's code initialisation, N(0, 1/C)
         nn::Rng crng(sched.seed, 204);
@@ -294,7 +308,7 @@ void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_
            << " qpp=" << opts.sampling.queries_per_point << " spreads=";
         for (float x : opts.sampling.spreads) fp << x << ",";
         if (opts.stop.enabled)
-            fp << " stop=" << opts.stop.window << "/" << opts.stop.tolerance << "/" << opts.stop.min_steps << "/"
+            fp << " stop=2/" << opts.stop.window << "/" << opts.stop.tolerance << "/" << opts.stop.min_steps << "/"
                << opts.stop.cooldown_fraction << "/" << opts.stop.min_cooldown;
         fp << " uniform=" << opts.sampling.uniform_fraction << "/"
            << opts.sampling.uniform_margin << " points=" << first.size();

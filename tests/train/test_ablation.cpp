@@ -350,3 +350,47 @@ TEST_CASE("query fit: the stop rule ends the fit after a plateau and a cooldown,
     pcp::QueryNetFitter other(torus(), toy_prior(), toy_fit(QueryAblation::None, 4000));
     CHECK_THROWS_WITH(other.resume(ckpt), Catch::Contains("other inputs or settings"));
 }
+
+TEST_CASE("query fit: with a cosine schedule the stop rule keeps it until the plateau, then runs the rest of its decay "
+          "in the cooldown", "[ablation]") {
+    const ThreadsGuard threads(1);
+    pcp::QueryFitOptions o = toy_fit(QueryAblation::None, 2000);
+    o.schedule.lr_schedule = pcp::LrScheduleKind::Cosine;
+    o.schedule.warmup_steps = 20;
+    o.stop.enabled = true;
+    o.stop.window = 50;
+    o.stop.min_steps = 100;
+    o.stop.tolerance = 0.02;
+    o.stop.cooldown_fraction = 0.25;
+    o.stop.min_cooldown = 50;
+    pcp::QueryNetFitter ruled(torus(), toy_prior(), o);
+    REQUIRE(ruled.run());
+    const std::int64_t plateau = ruled.plateau_step();
+    INFO("plateau at " << plateau << ", stopped at " << ruled.steps_done());
+    REQUIRE(plateau >= 100);
+    const std::int64_t end = std::max<std::int64_t>(plateau + 50, plateau + std::llround(0.25 * plateau));
+    CHECK(ruled.steps_done() == end);
+    CHECK(end < 2000);
+
+    // Until the plateau the same fit as without the rule (the schedule's own rates): the same loss
+    // at every step; after it, the rule's rates are lower (the decay runs faster).
+    pcp::QueryFitOptions plain_options = o;
+    plain_options.stop.enabled = false;
+    pcp::QueryNetFitter plain(torus(), toy_prior(), plain_options);
+    pcp::QueryNetFitter again(torus(), toy_prior(), o);
+    int differ = 0;
+    for (std::int64_t s = 0; s < plateau; ++s) differ += plain.step() != again.step();
+    CHECK(differ == 0);
+    CHECK(again.plateau_step() == plateau);
+    Eigen::VectorXf a(torus().size()), b(torus().size());
+    plain.sdf(torus().unit(), a);
+    again.sdf(torus().unit(), b);
+    CHECK((a - b).cwiseAbs().maxCoeff() == 0.0f);
+    for (int s = 0; s < 2; ++s) {  // the step at the plateau has its rate; the next one a lower rate
+        plain.step();
+        again.step();
+    }
+    plain.sdf(torus().unit(), a);
+    again.sdf(torus().unit(), b);
+    CHECK((a - b).cwiseAbs().maxCoeff() > 0.0f);
+}

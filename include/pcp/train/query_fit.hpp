@@ -65,13 +65,16 @@ struct SignGuideOptions {
     VisibilityOptions visibility;  ///< the labels, when the fitter is not given them
 };
 
-/// Stop when converged instead of after a fixed count (not in the paper). The fit runs at its
-/// peak rate (after the warm-up) while the loss still falls: every `window` steps it compares the
-/// window's mean loss with the previous window's; once the relative decrease is below `tolerance`
-/// (and at least min_steps are done), the rate decays (cosine to 0.02 x) over a cooldown of
-/// cooldown_fraction x the steps done (at least min_cooldown), and the fit stops there.
-/// QueryFitOptions::steps stays the cap: without a plateau the cooldown is placed to end at it.
-/// With the rule on, the schedule's own lr_schedule is not used.
+/// Stop when converged instead of after a fixed count (not in the paper). Every `window` steps
+/// the fit compares the window's mean loss with the previous window's; once the relative decrease
+/// is below `tolerance` (and at least min_steps are done), a cooldown of cooldown_fraction x the
+/// steps done (at least min_cooldown) follows and the fit stops there. QueryFitOptions::steps
+/// stays the cap. With a cosine schedule (the presets') the rates are the schedule's own until the
+/// plateau and the rest of its decay runs in the cooldown (nn::LrSchedule::compress_from); without
+/// a plateau the fit is exactly the schedule's. With a constant rate, the peak rate until the
+/// plateau, then cosine to 0.02 x over the cooldown (placed to end at the cap when no plateau
+/// comes). Measured against the peak-rate-until-the-plateau form in docs/BENCHMARKS.md ("The stop
+/// rule on the preset's own schedule").
 struct StopRule {
     bool enabled = false;
     std::int64_t window = 200;
