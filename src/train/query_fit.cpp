@@ -109,7 +109,7 @@ struct QueryNetFitter::Impl {
 
     /// The stop rule's end: a plateau at `start`, the fit ends at `end`. A cosine schedule runs the
     /// rest of its decay in start .. end (nn::LrSchedule::compress_from); a constant one decays
-    /// from there (cosine to 0.02 x the rate at `end`).
+    /// from there (cosine to 0.02 x its rate, reached at `end`).
     void set_cooldown(std::int64_t start, std::int64_t end) {
         nn::LrSchedule& lr = trainer->options.lr;
         lr = base_lr;

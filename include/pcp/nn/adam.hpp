@@ -45,7 +45,7 @@ struct LrSchedule {
     std::int64_t decay_start = -1;
     /// Cosine: from step compress_from on, the rest of the decay (compress_from .. total_steps)
     /// runs in compress_from .. compress_to instead, at the same rates in the same order (a time
-    /// warp; the stop rule's end). -1: none. Needs warm-up end <= compress_from < compress_to.
+    /// warp; the stop rule's end). -1: none; ignored unless compress_from < compress_to, total_steps.
     std::int64_t compress_from = -1;
     std::int64_t compress_to = -1;
 
