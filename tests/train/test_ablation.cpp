@@ -276,15 +276,23 @@ TEST_CASE("query fit of several clouds: one is the single-cloud fit, two share Q
                     pcp::Error);
 }
 
-TEST_CASE("query fit: the stop rule ends the fit after a plateau and a cooldown, within the cap, and resumes exactly", "[ablation]") {
-    const ThreadsGuard threads(1);
-    pcp::QueryFitOptions o = toy_fit(QueryAblation::None, 4000);
+namespace {
+/// The stop rule at the toy fit's scale: windows of 50 steps, a plateau after at least 100,
+/// tolerance 0.02, a cooldown of a quarter of the steps done (at least 50).
+void with_toy_stop_rule(pcp::QueryFitOptions& o) {
     o.stop.enabled = true;
     o.stop.window = 50;
     o.stop.min_steps = 100;
     o.stop.tolerance = 0.02;
     o.stop.cooldown_fraction = 0.25;
     o.stop.min_cooldown = 50;
+}
+}  // namespace
+
+TEST_CASE("query fit: the stop rule ends the fit after a plateau and a cooldown, within the cap, and resumes exactly", "[ablation]") {
+    const ThreadsGuard threads(1);
+    pcp::QueryFitOptions o = toy_fit(QueryAblation::None, 4000);
+    with_toy_stop_rule(o);
     pcp::QueryNetFitter fitter(torus(), toy_prior(), o);
     CHECK(fitter.planned_steps() == 4000);
     CHECK(fitter.plateau_step() == -1);
@@ -357,12 +365,7 @@ TEST_CASE("query fit: with a cosine schedule the stop rule keeps it until the pl
     pcp::QueryFitOptions o = toy_fit(QueryAblation::None, 2000);
     o.schedule.lr_schedule = pcp::LrScheduleKind::Cosine;
     o.schedule.warmup_steps = 20;
-    o.stop.enabled = true;
-    o.stop.window = 50;
-    o.stop.min_steps = 100;
-    o.stop.tolerance = 0.02;
-    o.stop.cooldown_fraction = 0.25;
-    o.stop.min_cooldown = 50;
+    with_toy_stop_rule(o);
     pcp::QueryNetFitter ruled(torus(), toy_prior(), o);
     REQUIRE(ruled.run());
     const std::int64_t plateau = ruled.plateau_step();
