@@ -287,6 +287,11 @@ void with_toy_stop_rule(pcp::QueryFitOptions& o) {
     o.stop.cooldown_fraction = 0.25;
     o.stop.min_cooldown = 50;
 }
+/// Where that rule ends a fit whose plateau came at `plateau`: a quarter of the steps done later, at
+/// least 50.
+std::int64_t toy_stop_end(std::int64_t plateau) {
+    return std::max<std::int64_t>(plateau + 50, plateau + std::llround(0.25 * plateau));
+}
 }  // namespace
 
 TEST_CASE("query fit: the stop rule ends the fit after a plateau and a cooldown, within the cap, and resumes exactly", "[ablation]") {
@@ -301,7 +306,7 @@ TEST_CASE("query fit: the stop rule ends the fit after a plateau and a cooldown,
     INFO("plateau at " << plateau << ", stopped at " << fitter.steps_done());
     REQUIRE(plateau >= 100);
     CHECK(plateau % 50 == 0);
-    CHECK(fitter.steps_done() == std::max<std::int64_t>(plateau + 50, plateau + std::llround(0.25 * plateau)));
+    CHECK(fitter.steps_done() == toy_stop_end(plateau));
     CHECK(fitter.steps_done() == fitter.planned_steps());
     CHECK(fitter.steps_done() < 4000);
 
@@ -371,7 +376,7 @@ TEST_CASE("query fit: with a cosine schedule the stop rule keeps it until the pl
     const std::int64_t plateau = ruled.plateau_step();
     INFO("plateau at " << plateau << ", stopped at " << ruled.steps_done());
     REQUIRE(plateau >= 100);
-    const std::int64_t end = std::max<std::int64_t>(plateau + 50, plateau + std::llround(0.25 * plateau));
+    const std::int64_t end = toy_stop_end(plateau);
     CHECK(ruled.steps_done() == end);
     CHECK(end < 2000);
 
