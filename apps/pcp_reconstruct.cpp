@@ -99,8 +99,8 @@ int run_many(const cxxopts::ParseResult& args, pcp::ReconstructOptions o, const 
     if (output_dir.empty()) throw pcp::cli::UsageError("several inputs need --output-dir DIR (one mesh per input)");
     if (args.count("output")) throw pcp::cli::UsageError("-o names one mesh; with several inputs use --output-dir DIR");
     if (!args["normals"].as<std::string>().empty()) throw pcp::cli::UsageError("--normals takes one input");
-    if (o.fit.ablation != pcp::QueryAblation::None || o.fit.sign_guide.enabled)
-        throw pcp::cli::UsageError("several inputs are fitted with the method itself: no --ablation, no --sign-guide");
+    if (o.fit.ablation != pcp::QueryAblation::None)
+        throw pcp::cli::UsageError("several inputs are fitted with the method itself: no --ablation");
     const std::vector<std::string> inputs = pcp::cli::collect_inputs(positional, list_file);
     if (inputs.empty()) throw pcp::cli::UsageError("no input point clouds");
     const std::string prior_path = args["prior"].as<std::string>();
@@ -270,13 +270,6 @@ int main(int argc, char** argv) {
             ("batch-parts", "Split each step's batch into this many parts, one thread each (0 = one per thread; 1 = "
                             "the whole batch, its products split over the threads); speed only",
              cxxopts::value<int>()->default_value(std::to_string(d.fit.batch_parts)))
-            ("stop-rule", "on | off: stop the query network when its loss has levelled off (then a cooldown), "
-                          "with --steps as the cap; off: exactly --steps steps",
-             cxxopts::value<std::string>()->default_value(d.fit.stop.enabled ? "on" : "off"))
-            ("stop-tolerance", "The stop rule's plateau: relative decrease of the mean loss between two windows of "
-                               "200 steps below this", cxxopts::value<double>()->default_value(fmt(d.fit.stop.tolerance)))
-            ("stop-min-steps", "The stop rule looks for the plateau only after this many steps",
-             cxxopts::value<long>()->default_value(std::to_string(d.fit.stop.min_steps)))
             ("lr", "Learning rate", cxxopts::value<double>()->default_value(fmt(d.fit.schedule.learning_rate)))
             ("width", "Query-network width", cxxopts::value<int>()->default_value(std::to_string(d.fit.width)))
             ("depth", "Query-network hidden layers", cxxopts::value<int>()->default_value(std::to_string(d.fit.depth)))
@@ -317,13 +310,6 @@ int main(int argc, char** argv) {
              cxxopts::value<std::string>()->default_value(d.sign_repair.enabled ? "on" : "off"))
             ("sign-repair-resolution", "Cells per axis of the sign repair's coarse grid",
              cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.resolution)))
-            ("sign-repair-parity", "Also flip coarse samples whose sign disagrees with at least this many of their 6 "
-                                   "axis-ray parity votes (0 = off, 1..6; include/pcp/mesh/sign_repair.hpp)",
-             cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.parity_votes)))
-            ("sign-guide", "on | off: during the query-network fit, tell the field which side of the surface the points "
-                           "away from the data are on, by visibility through the cloud (not in the paper; "
-                           "include/pcp/cloud/visibility.hpp)",
-             cxxopts::value<std::string>()->default_value(d.fit.sign_guide.enabled ? "on" : "off"))
             ("label-votes", "With N > 0, the sign repair also flips a region away from the data when at least N of its "
                             "samples, and more than agree, are on the other side by visibility through the cloud (0 = off; "
                             "not in the paper; include/pcp/mesh/sign_repair.hpp)",
@@ -333,7 +319,7 @@ int main(int argc, char** argv) {
                              "include/pcp/mesh/winding_sign.hpp)",
              cxxopts::value<std::string>()->default_value(d.winding_sign.enabled ? "on" : "off"))
             ("winding-normals", "labels | field: orient the winding number's points by which side the visibility labels "
-                                "see outside (they exist with --label-votes > 0 or the sign guide), by the field where the "
+                                "see outside, by the field where the "
                                 "labels orient fewer than half of them; or by the field only",
              cxxopts::value<std::string>()->default_value(d.winding_sign.orient_by_labels ? "labels" : "field"))
             ("winding-near", "Distance from the data, in sampling scales, within which the field keeps its own sign",
@@ -351,10 +337,6 @@ int main(int argc, char** argv) {
                               "the data (openings a few sample spacings wide that the field spans; not in the paper; "
                               "include/pcp/mesh/through_carve.hpp)",
              cxxopts::value<std::string>()->default_value(d.through_carve.enabled ? "on" : "off"))
-            ("bridge-cut", "on | off: with the tunnel fill, also cut the bridges of solid two cells across or less where that "
-                           "removes a small handle and leaves the solid in one piece (the tunnel fill's dual; not in the paper; off by default: "
-                           "it widens the holes of a thin wall the field already perforated)",
-             cxxopts::value<std::string>()->default_value(d.tunnel_fill.cut_bridges ? "on" : "off"))
             ("mc-ambiguity", "join | decider | separate: how marching cubes cuts a grid face whose diagonal corners share "
                              "a sign: the inside joined (the default: the mesh has the topology the grid repairs count), "
                              "by the bilinear saddle (asymptotic decider), or the inside separated (include/pcp/mesh/marching_cubes.hpp)",
@@ -493,12 +475,6 @@ int main(int argc, char** argv) {
         if (args.count("denoise-mode-width")) o.denoise.mode_width = args["denoise-mode-width"].as<double>();
         if (!(o.denoise.mode_width >= 0) || !std::isfinite(o.denoise.mode_width))
             throw pcp::cli::UsageError("--denoise-mode-width must be a finite number >= 0");
-        if (const auto on = on_off(args, "stop-rule")) o.fit.stop.enabled = *on;
-        if (args.count("stop-tolerance")) o.fit.stop.tolerance = args["stop-tolerance"].as<double>();
-        if (!(o.fit.stop.tolerance >= 0.0 && o.fit.stop.tolerance < 1.0))
-            throw pcp::cli::UsageError("--stop-tolerance must be in [0, 1)");
-        if (args.count("stop-min-steps")) o.fit.stop.min_steps = args["stop-min-steps"].as<long>();
-        if (o.fit.stop.min_steps < 0) throw pcp::cli::UsageError("--stop-min-steps must be >= 0");
         if (const auto on = on_off(args, "sign-repair")) o.sign_repair.enabled = *on;
         {
             const std::string v = args["grid-precision"].as<std::string>();
@@ -511,7 +487,6 @@ int main(int argc, char** argv) {
             o.sign_repair.resolution > pcp::SignRepairOptions::kMaxResolution)
             throw pcp::cli::UsageError("--sign-repair-resolution must be in [" + std::to_string(pcp::SignRepairOptions::kMinResolution) +
                                        ", " + std::to_string(pcp::SignRepairOptions::kMaxResolution) + "]");
-        if (const auto on = on_off(args, "sign-guide")) o.fit.sign_guide.enabled = *on;
         if (args.count("label-votes")) o.sign_repair.min_label_votes = args["label-votes"].as<int>();
         if (o.sign_repair.min_label_votes < 0) throw pcp::cli::UsageError("--label-votes must be >= 0");
         if (const auto on = on_off(args, "winding-sign")) o.winding_sign.enabled = *on;
@@ -523,12 +498,11 @@ int main(int argc, char** argv) {
         if (args.count("winding-near")) o.winding_sign.near_k = args["winding-near"].as<double>();
         if (!(o.winding_sign.near_k >= 0 && o.winding_sign.near_k <= 100))
             throw pcp::cli::UsageError("--winding-near must be in [0, 100]");
-        if (const auto on = auto_on_off(args, "smooth")) o.smoothing.noisy = o.smoothing.clean = *on;
-        if (const auto on = auto_on_off(args, "recentre")) o.recentre.noisy = o.recentre.clean = *on;
+        if (const auto on = auto_on_off(args, "smooth")) o.smoothing.enabled = o.noisy.smooth = *on;
+        if (const auto on = auto_on_off(args, "recentre")) o.recentre.enabled = o.noisy.recentre = *on;
         if (const auto on = on_off(args, "cavity-fill")) o.cavity_fill.enabled = *on;
         if (const auto on = on_off(args, "fine-repair")) o.fine_repair.enabled = *on;
         if (const auto on = on_off(args, "tunnel-fill")) o.tunnel_fill.enabled = *on;
-        if (const auto on = on_off(args, "bridge-cut")) o.tunnel_fill.cut_bridges = *on;
         if (const auto on = on_off(args, "through-carve")) o.through_carve.enabled = *on;
         if (args.count("mc-ambiguity")) {
             const std::string v = args["mc-ambiguity"].as<std::string>();
@@ -544,9 +518,6 @@ int main(int argc, char** argv) {
         if (o.surface_fit.iterations < 0 || o.surface_fit.iterations > 100)
             throw pcp::cli::UsageError("--surface-fit-iterations must be in [0, 100]");
         o.keep_checkpoints = args.count("keep-checkpoint") > 0;
-        if (args.count("sign-repair-parity")) o.sign_repair.parity_votes = args["sign-repair-parity"].as<int>();
-        if (o.sign_repair.parity_votes < 0 || o.sign_repair.parity_votes > 6)
-            throw pcp::cli::UsageError("--sign-repair-parity must be in [0, 6]");
         if (args["builtin-points"].as<long>() < pcp::min_points_for(o.fit.sampling))
             throw pcp::cli::UsageError("--builtin-points must be >= " + std::to_string(pcp::min_points_for(o.fit.sampling)));
         o.fit.schedule.seed = o.self_prior.schedule.seed = common.seed;
@@ -624,8 +595,7 @@ int main(int argc, char** argv) {
                                                               (o.denoise.mode_width > 0 && (o.denoise.automatic || o.denoise.passes > 0)
                                                                    ? ", to the own side's mode (width " + fmt(o.denoise.mode_width) + ")"
                                                                    : "")},
-                                              {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step) +
-                                                                                  (o.fit.stop.enabled ? " (at most; stop rule on)" : "")},
+                                              {"query-net steps x batch", std::to_string(o.fit.steps) + " x " + std::to_string(o.fit.queries_per_step)},
                                               {"ablation", pcp::to_string(o.fit.ablation)},
                                               {"resolution", std::to_string(o.resolution)},
                                               {"sign repair", o.sign_repair.enabled ? "on (coarse grid " + std::to_string(std::min(o.sign_repair.resolution, o.resolution)) + ")" : "off"},
@@ -660,19 +630,6 @@ int main(int argc, char** argv) {
         }
         std::error_code ec;
         if (!o.keep_checkpoints) std::filesystem::remove(o.fit.schedule.checkpoint_path, ec);
-        std::string shell_text;  // the shell centring, where it ran (a noisy cloud with a filled shell)
-        if (report.shell_centre.applied) {
-            std::ostringstream t;
-            t << ", shell centring moved " << report.shell_centre.moved << " vertices inward (by " << report.shell_centre.mean_move
-              << " on average, unit box)";
-            shell_text = t.str();
-        }
-        std::string recentre_text;  // the recentring, where it ran (a noisy cloud by default)
-        if (report.recentre.applied) {
-            std::ostringstream t;
-            t << ", recentred (noise spread " << report.recentre.spread << ", mean move " << report.recentre.mean_move << ", unit box)";
-            recentre_text = t.str();
-        }
         std::ostringstream s;
         s << "wrote " << output << ": " << mesh.vertices.rows() << " vertices, " << mesh.faces.rows() << " faces, "
           << (report.closed ? "closed" : "NOT closed") << (report.sign_flipped ? " (sign flipped to face outward)" : "")
@@ -692,61 +649,13 @@ int main(int argc, char** argv) {
                         std::to_string(report.visibility.outside) + " outside / " + std::to_string(report.visibility.unknown) +
                         " unknown cells (" + fmt(report.visibility.seconds) + " s)"
                   : std::string())
-          << (report.guided_per_step > 0 ? ", sign guide " + std::to_string(report.guided_per_step) + " queries per step"
-                                         : std::string(", sign guide off"))
           << ", sign repair flipped " << report.sign_repair.flipped_components << " of " << report.sign_repair.components
           << " regions away from the data"
           << (report.sign_repair.label_flipped > 0 ? " (" + std::to_string(report.sign_repair.label_flipped) + " by the visibility labels)"
-                                                   : std::string())
-          << (o.sign_repair.parity_votes > 0 ? " and " + std::to_string(report.sign_repair.parity_flipped) + " coarse samples by parity" : std::string())
-          << ", cavity fill " << (report.cavity_fill.skipped ? std::string("skipped (grid too large)")
-                                   : "filled " + std::to_string(report.cavity_fill.cavities) + " pockets" +
-                                         (report.cavity_fill.labelled_cavities > 0
-                                              ? " (" + std::to_string(report.cavity_fill.labelled_cavities) + " of them open but labelled inside" +
-                                                    (report.cavity_fill.supported_cavities > 0
-                                                         ? ", " + std::to_string(report.cavity_fill.supported_cavities) + " open only on the data"
-                                                         : std::string()) +
-                                                    ")"
-                                              : std::string()))
-          << ", fine repair flipped " << report.fine_repair.flipped_components << " of " << report.fine_repair.components
-          << " thin regions" << (report.fine_repair.skipped ? " (skipped: grid too large)" : "")
-          << ", tunnel fill " << (report.tunnel_fill.skipped ? std::string("skipped (grid too large)")
-                                   : "plugged " + std::to_string(report.tunnel_fill.plugged) + " of " +
-                                         std::to_string(report.tunnel_fill.candidates) + " narrow passages")
-          << (!o.through_carve.enabled ? std::string()
-              : report.through_carve.skipped ? std::string(", through-line carve skipped (grid too large)")
-                                             : ", through-line carve opened " + std::to_string(report.through_carve.opened) + " of " +
-                                                   std::to_string(report.through_carve.pieces) + " pieces (" +
-                                                   std::to_string(report.through_carve.carved) + " of " +
-                                                   std::to_string(report.through_carve.candidates) + " samples tried, " +
-                                                   fmt(report.through_carve.seconds) + " s)")
-          << (o.tunnel_fill.enabled && o.tunnel_fill.cut_bridges && !report.bridge_cut.skipped
-                  ? ", bridge cut " + std::to_string(report.bridge_cut.cut) + " of " + std::to_string(report.bridge_cut.candidates) + " thin pieces"
-                  : std::string())
-          << shell_text
-          << recentre_text
-          << ", surface fit removed " << report.surface_fit.removed_components << " of " << report.surface_fit.components
-          << " components (no input points near them" +
-                 (report.surface_fit.removed_small > 0 ? ", or " + std::to_string(report.surface_fit.removed_small) + " smaller than the sampling scale" : std::string()) +
-                 (report.surface_fit.removed_blisters > 0 ? ", or " + std::to_string(report.surface_fit.removed_blisters) + " lying on the largest within a sampling scale" : std::string()) +
-                 ")" << (report.collapsed_removed > 0 ? ", and last " + std::to_string(report.collapsed_removed) + " that the fit shrank below the sampling scale" : std::string())
-          << (report.smoothed ? ", smoothed" : "")
-          << (report.fairing.failed ? std::string(", fairing skipped (its sparse solve failed)")
-              : report.fairing.free_vertices > 0
-                  ? ", faired " + std::to_string(report.fairing.free_vertices) + " vertices with no data under them in " +
-                        std::to_string(report.fairing.patches) + " patches"
-                  : std::string())
-          << (report.fairing.reverted > 0 ? ", " + std::to_string(report.fairing.reverted) + " patches left unfaired (their solve strayed)"
-                                          : std::string())
-          << (report.sheet_gap.moved > 0 ? ", moved the sides of thin parts apart at " + std::to_string(report.sheet_gap.moved) +
-                                               " vertices (" + std::to_string(report.sheet_gap.crossed) + " had crossed; " +
-                                               fmt(report.sheet_gap.seconds) + " s)"
-                                         : std::string())
-          << (report.thin_raised > 0 ? ", thin level raised at " + std::to_string(report.thin_raised) + " points with no inside under them"
-                                     : std::string())
-          << (o.scene.enabled ? ", scene mode removed " + std::to_string(report.scene_trimmed) + " faces with no data near them"
-                              : std::string());
+                                                   : std::string());
         log.info(s.str());
+        for (const pcp::PassReport& pass : report.passes)
+            if (!pass.summary.empty()) log.info("  " + pass.name + ": " + pass.summary + " (" + fmt(pass.seconds) + " s)");
         const double total_s = pcp::cli::seconds_since(t_start);
         pcp::cli::print_stage_table(
             log, {{"read", t_read, -1},

@@ -1,5 +1,5 @@
-// bench_smooth MESH OUT taubin ITER | bilateral NORMAL_ITER VERTEX_ITER SIGMA_R SPATIAL
-// Applies one of the smoothers of pcp/mesh/smooth.hpp to a mesh file (for measuring settings on
+// bench_smooth MESH OUT bilateral NORMAL_ITER VERTEX_ITER SIGMA_R SPATIAL
+// Applies the bilateral smoothing of pcp/mesh/smooth.hpp to a mesh file (for measuring settings on
 // stored benchmark meshes without fitting the networks again).
 #include "pcp/core/error.hpp"
 #include "pcp/io/io.hpp"
@@ -12,15 +12,13 @@
 int main(int argc, char** argv) {
     try {
         if (argc < 5) {
-            std::cerr << "usage: bench_smooth MESH OUT taubin ITER | bilateral NORMAL_ITER VERTEX_ITER SIGMA_R SPATIAL\n";
+            std::cerr << "usage: bench_smooth MESH OUT bilateral NORMAL_ITER VERTEX_ITER SIGMA_R SPATIAL\n";
             return 2;
         }
         const pcp::Mesh mesh = pcp::read_mesh(argv[1]);
         const std::string method = argv[3];
         pcp::Mesh out;
-        if (method == "taubin") {
-            out = pcp::taubin_smooth(mesh, std::atoi(argv[4]));
-        } else if (method == "bilateral" && argc >= 8) {
+        if (method == "bilateral" && argc >= 8) {
             pcp::BilateralOptions o;
             o.normal_iterations = std::atoi(argv[4]);
             o.vertex_iterations = std::atoi(argv[5]);

@@ -1,12 +1,13 @@
 // Applies the surface fit (pcp/mesh/surface_fit.hpp) to a mesh already made from a cloud, so that
 // its settings can be measured on stored benchmark meshes without refitting the networks.
 // Usage: bench_surface_fit MESH CLOUD OUT [ITERATIONS NEIGHBORS(auto|K) BANDWIDTH RELAX DENOISE(auto|0) MIN_SUPPORTED SHRINK(1|0)]
-// (NEIGHBORS auto: pcp::reconstruct's rule, SurfaceFitOptions::noisy_neighbors for a cloud it denoises.)
+// (NEIGHBORS auto: pcp::reconstruct's rule, NoisyCloudOptions::fit_neighbors for a cloud it denoises.)
 #include "pcp/cloud/denoise.hpp"
 #include "pcp/cloud/prepared_cloud.hpp"
 #include "pcp/core/error.hpp"
 #include "pcp/io/io.hpp"
 #include "pcp/mesh/surface_fit.hpp"
+#include "pcp/reconstruct.hpp"
 
 #include <chrono>
 #include <cstdio>
@@ -20,7 +21,7 @@ int main(int argc, char** argv) {
         }
         pcp::SurfaceFitOptions o;
         if (argc > 4) o.iterations = std::stoi(argv[4]);
-        const bool rule = argc <= 5 || std::string(argv[5]) == "auto";  // the pipeline's: noisy_neighbors for a denoised cloud
+        const bool rule = argc <= 5 || std::string(argv[5]) == "auto";  // the pipeline's: NoisyCloudOptions::fit_neighbors for a denoised cloud
         if (!rule) o.neighbors = std::stoi(argv[5]);
         if (argc > 6) o.bandwidth = std::stod(argv[6]);
         if (argc > 7) o.relax = std::stod(argv[7]);
@@ -35,7 +36,7 @@ int main(int argc, char** argv) {
             d.passes = pcp::denoise_passes(points, d);
             d.automatic = false;
             if (d.passes > 0) points = pcp::denoise_points(points, d);
-            if (d.passes > 0 && rule) o.neighbors = o.noisy_neighbors;
+            if (d.passes > 0 && rule) o.neighbors = pcp::NoisyCloudOptions().fit_neighbors;
         }
         const auto t0 = std::chrono::steady_clock::now();
         const pcp::PreparedCloud cloud(points, argv[2], 10);

@@ -1,5 +1,5 @@
 // bench_visibility INPUT INSIDE.ply OUTSIDE.ply [RESOLUTION MIN_DISTANCE [SDF_SAMPLES]]
-// The sign guide's labels (pcp/cloud/visibility.hpp) of a cloud: the centres of the cells labelled
+// The visibility labels (pcp/cloud/visibility.hpp) of a cloud: the centres of the cells labelled
 // inside and outside, written as clouds in the input's frame (to render beside the ground truth).
 // With SDF_SAMPLES (a cloud with an "sdf" property; the ABC files are positive inside, whatever their README
 // says: docs/BENCHMARKS.md, "Sign agreement"), also

@@ -10,7 +10,7 @@
 # Usage: bench/run_time_accuracy.sh OUT [CASE...]  (default cases: abc_00010074 bunny gargoyle)
 # Environment: BIN (default <repo>/build/bin), MANIFEST (default <repo>/../shared/data/MANIFEST.tsv),
 # VARIANTS (newline-separated "NAME:ARGS"; default, all in fp32: fast; default with its cosine
-# schedule over 800, 1200, 1800, 2400 (the preset's) and 3600 steps; default with the stop rule).
+# schedule over 800, 1200, 1800, 2400 (the preset's) and 3600 steps).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 repo=$(cd "$here/.." && pwd)
@@ -27,8 +27,7 @@ default-800:--preset default --steps 800 --precision fp32
 default-1200:--preset default --steps 1200 --precision fp32
 default-1800:--preset default --steps 1800 --precision fp32
 default:--preset default --precision fp32
-default-3600:--preset default --steps 3600 --precision fp32
-default-stop:--preset default --stop-rule on --precision fp32"
+default-3600:--preset default --steps 3600 --precision fp32"
 variants=${VARIANTS:-$default_variants}
 mkdir -p "$out"
 wall() { awk '/^WALL /{print $2}' "$1"; }

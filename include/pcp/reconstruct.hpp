@@ -49,6 +49,27 @@ enum class PriorSource {
                 ///< (DenoiseOptions::automatic; with several clouds, if any of them is)
 };
 
+/// What changes for a cloud the pipeline denoised (noisy): applied over the options of the passes
+/// once, before the mesh stage runs (not in the paper; each value measured on the noisy shared
+/// cases, docs/NOTEBOOK.md).
+struct NoisyCloudOptions {
+    /// Cavity fill: a pocket at most this open is filled (CavityFillOptions::max_open): pockets
+    /// among the sheets of a noise band are 0.5 open too.
+    double cavity_max_open = 0.15;
+    /// Surface fit: input points per vertex (SurfaceFitOptions::neighbors): the averaging does
+    /// the denoising.
+    int fit_neighbors = 32;
+    /// Surface passes fit to the input points as given, not the denoised ones (the denoiser's plane
+    /// projection pulls points inward on curved parts).
+    bool fit_raw_points = true;
+    bool smooth = true;              ///< SmoothOptions::enabled
+    bool recentre = true;            ///< RecentreOptions::enabled
+    bool sheet_gap_where_raised = true;  ///< SheetGapOptions::where_raised_only
+    /// ReconstructOptions::thin_company: a noisy field has valleys in the noise band and over
+    /// thin noisy plates that a company of 3 raises.
+    int thin_company = 6;
+};
+
 struct ReconstructOptions {
     DenoiseOptions denoise;          ///< optional plane-projection denoising of the input (off; not in the paper)
     /// When no prior is given. SelfPrior here (the paper's schedule); the "default" and "fast"
@@ -81,12 +102,9 @@ struct ReconstructOptions {
     /// Averaged over the 8 nearest points; never below thin_offset. 0: off (thin_offset everywhere).
     double thin_probe = 1.0;
     /// thin_probe's candidates are raised only with at least this many of their 8 nearest points
-    /// (themselves included) candidates too (ThinLevel::raise_where_thin): 3 on clean clouds; 6 on
-    /// the clouds the pipeline denoised, whose field has valleys in the noise band and over thin
-    /// noisy plates (abc_00010074 0.0072 -> 0.0081 of L2-CD x 100 at 3, 0.0076 at 6), while a
-    /// clean sheet's holes need 3 (at 6 a one-layer bowl kept dozens of holes).
+    /// (themselves included) candidates too (ThinLevel::raise_where_thin): 3 on clean clouds, whose
+    /// one-layer sheets need it; more on denoised ones (NoisyCloudOptions::thin_company).
     int thin_company = 3;
-    int thin_company_noisy = 6;
     /// ... and only when at least this share of all points is raised (ThinLevel::raise_where_thin):
     /// the built-in shape's 16 of 20,000 points added 5 handles; abc_00010074's 1.9-2.7 % lie on a
     /// thin noisy plate the fixed offset already encloses; the shells measured 30-45 %.
@@ -105,9 +123,14 @@ struct ReconstructOptions {
     }();
     WindingSignOptions winding_sign; ///< the sign away from the data by the winding number of the field-oriented points (not in the paper; never in the scene mode)
     SignRepairOptions sign_repair;   ///< flip regions whose sign the data does not support (not in the paper)
+    /// Inside / outside by visibility through the cloud (pcp/cloud/visibility.hpp; its seed is
+    /// fit.schedule.seed), computed once for every pass that reads them: the sign repair's label
+    /// vote and the cavity fill (their min_label_votes > 0) and the winding sign's orientation
+    /// (orient_by_labels); see needs_visibility_labels().
+    VisibilityOptions visibility;
     CavityFillOptions cavity_fill;   ///< fill enclosed positive pockets (hollow shells of noisy scans) on a dense grid (not in the paper)
     FineRepairOptions fine_repair;   ///< the sign repair's rule on the fine grid, for thin membranes (not in the paper)
-    TunnelFillOptions tunnel_fill;   ///< plug passages through the solid two cells across or less, and cut solid bridges as thin, on a dense grid (not in the paper)
+    TunnelFillOptions tunnel_fill;   ///< plug passages through the solid two cells across or less, on a dense grid (not in the paper)
     ThroughCarveOptions through_carve;  ///< make outside the inside samples on lines that cross no wall of the data (not in the paper)
     /// How marching cubes cuts an ambiguous face: the inside joined, so that the mesh bounds the
     /// solid of closed cubes whose handles and pockets the fills above count and remove (not in
@@ -123,6 +146,7 @@ struct ReconstructOptions {
     FairOptions fairing;             ///< the surface where no data lies under it faired onto the supported rest, last (not in the paper; off in the scene mode)
     SheetGapOptions sheet_gap;       ///< the two sides of a thin part at least min_gap apart, after the fairing (not in the paper)
     SceneOptions scene;              ///< open surfaces where the data ends (rooms); off except in the "scene" preset
+    NoisyCloudOptions noisy;         ///< what changes for a cloud the pipeline denoised
     /// The oriented normals of the input points, when asked for (not in the paper): read off the
     /// final mesh at the nearest point (Mesh), the PCA normals oriented by it (PcaByMesh), or the
     /// PCA normals oriented by the fitted field's own votes (Field, pcp/mesh/field_normals.hpp).
@@ -148,15 +172,27 @@ struct ReconstructOptions {
     Eigen::Index max_fit_points = 200000;
     ProgressCallback progress;       ///< forwarded to every stage ("prior", "query-net", "sdf-grid")
 
+    /// Whether any pass that reads the visibility labels runs with these options.
+    bool needs_visibility_labels() const;
+
     /// Named presets: "paper", "default", "fast", "scene". Throws pcp::Error for other names.
     static ReconstructOptions preset(const std::string& name);
 };
 
+/// One pass of the mesh stage as it ran (src/pipeline/mesh_stage.hpp): its name, what it changed
+/// in a few words (empty: it did not run), and its time.
+struct PassReport {
+    std::string name;
+    std::string summary;
+    double seconds = 0;
+};
+
 struct ReconstructReport {
+    std::vector<PassReport> passes;  ///< the grid and surface passes in their order
     double seconds_denoise = 0, seconds_prior = 0, seconds_fit = 0, seconds_grid = 0, seconds_mesh = 0;
     RecentreStats recentre;          ///< whether the recentring ran, the noise's spread and the mean move
     SurfaceFitStats surface_fit;     ///< what the surface fit removed and moved
-    bool smoothed = false;           ///< the final mesh was smoothed (SmoothOptions: noisy for a denoised cloud, else clean)
+    bool smoothed = false;           ///< the final mesh was smoothed (SmoothOptions, NoisyCloudOptions::smooth)
     FairStats fairing;               ///< the vertices the fairing placed (all 0: none, or the scene mode)
     std::int64_t collapsed_removed = 0;  ///< components the mesh stages shrank below the support filter's size, removed last (remove_small_components)
     SheetGapStats sheet_gap;         ///< the thin parts' sides moved apart
@@ -165,13 +201,11 @@ struct ReconstructReport {
     CavityFillStats cavity_fill;     ///< what the cavity fill negated
     TunnelFillStats tunnel_fill;     ///< what the tunnel fill plugged
     ThroughCarveStats through_carve; ///< what the through-line carve opened
-    BridgeCutStats bridge_cut;       ///< what the bridge cut (the tunnel fill's dual) cut
     ShellCentreStats shell_centre;   ///< the vertices moved to the middle of their shell
     WindingSignStats winding_sign;   ///< the oriented normals and the winding-number tree
     FieldNormalsStats normals;       ///< the oriented normals of the input points (all 0: not asked for)
     std::int64_t winding_corrected = 0;  ///< field values whose sign the winding number changed
     VisibilityStats visibility;      ///< the visibility labels (all 0: not computed)
-    int guided_per_step = 0;         ///< the fit's sign-guided queries per step (0: guide off)
     bool builtin_prior = false;      ///< the fit used the built-in prior (frozen or fine-tuned)
     double prior_loss = 0, fit_loss = 0;
     std::int64_t fit_steps = 0;

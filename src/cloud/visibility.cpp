@@ -472,29 +472,4 @@ VisibilityLabels label_by_visibility(const KdTree& tree, const VisibilityOptions
     return label_by_visibility(tree, box, o);
 }
 
-void sample_labelled_points(const VisibilityLabels& labels, Eigen::Index count, std::uint64_t seed,
-                            std::uint64_t stream, PointsF& points, Eigen::VectorXf& values) {
-    const std::size_t ni = labels.inside_cells.size(), no = labels.outside_cells.size();
-    if (count <= 0 || ni + no == 0) {
-        points.resize(0, 3);
-        values.resize(0);
-        return;
-    }
-    points.resize(count, 3);
-    values.resize(count);
-    Rng rng(seed, stream);
-    const Eigen::Index n_inside = (ni > 0 && no > 0) ? count / 2 : (ni > 0 ? count : 0);
-    const std::int64_t dx = labels.dims.x(), dxy = dx * labels.dims.y();
-    for (Eigen::Index s = 0; s < count; ++s) {
-        const bool inside = s < n_inside;
-        const std::vector<std::int32_t>& from = inside ? labels.inside_cells : labels.outside_cells;
-        const std::int64_t c = from[static_cast<std::size_t>(rng.below(from.size()))];
-        const Eigen::Vector3d ijk(static_cast<double>(c % dx), static_cast<double>((c / dx) % labels.dims.y()),
-                                  static_cast<double>(c / dxy));
-        const Eigen::Vector3d u(rng.uniform(), rng.uniform(), rng.uniform());
-        points.row(s) = (labels.origin + labels.cell * (ijk + u)).cast<float>().transpose();
-        values(s) = inside ? -1.0f : 1.0f;
-    }
-}
-
 }  // namespace pcp

@@ -19,8 +19,7 @@ enum Label : std::uint8_t { kNone = 0, kOutside = 1, kCavity = 2 };
 
 CavityFillStats fill_cavities(SdfGrid& grid, const CavityFillOptions& options, const VisibilityLabels* labels, const KdTree* data) {
     PCP_CHECK(options.core_cells > 0 && std::isfinite(options.core_cells), "cavity fill: core_cells must be > 0");
-    PCP_CHECK(options.max_open >= 0 && options.max_open <= 1 && options.noisy_max_open >= 0 && options.noisy_max_open <= 1,
-              "cavity fill: max_open and noisy_max_open must be in [0, 1]");
+    PCP_CHECK(options.max_open >= 0 && options.max_open <= 1, "cavity fill: max_open must be in [0, 1]");
     PCP_CHECK(options.min_label_votes >= 0, "cavity fill: min_label_votes must be >= 0");
     CavityFillStats st;
     if (!options.enabled) return st;

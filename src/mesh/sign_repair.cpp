@@ -46,8 +46,6 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& t
               "sign repair: near_cells and near_spacings must be finite and >= 0");
     PCP_CHECK(options.max_unsupported >= 0 && options.max_unsupported < 1,
               "sign repair: max_unsupported must be in [0, 1) (got " << options.max_unsupported << ")");
-    PCP_CHECK(options.parity_votes >= 0 && options.parity_votes <= 6,
-              "sign repair: parity_votes must be in [0, 6] (got " << options.parity_votes << ")");
     PCP_CHECK(options.min_label_votes >= 0, "sign repair: min_label_votes must be >= 0 (got " << options.min_label_votes << ")");
     PCP_CHECK(points.rows() >= 2, "sign repair: needs at least 2 points (got " << points.rows() << ")");
     spec_.resolution = options.resolution;
@@ -215,45 +213,6 @@ SignRepair::SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& t
         }
         for (std::int64_t n = 0; n < count; ++n)
             if (!near[n] && flip_root[static_cast<std::size_t>(dsu.find(comp[n]))]) current[n] = static_cast<std::int8_t>(-current[n]);
-    }
-
-    // 3d. Parity vote: per axis line, the near-data bands (runs of near samples) before and after
-    // each sample; an odd count towards the box votes inside.
-    if (options.parity_votes > 0) {
-        std::vector<std::int8_t> inside_votes(static_cast<std::size_t>(count), 0);
-        std::vector<int> before(static_cast<std::size_t>(n1));
-        for (int axis = 0; axis < 3; ++axis) {
-            for (int v = 0; v < n1; ++v)
-                for (int u = 0; u < n1; ++u) {
-                    auto at = [&](int t) {
-                        int ijk[3];
-                        ijk[axis] = t;
-                        ijk[(axis + 1) % 3] = u;
-                        ijk[(axis + 2) % 3] = v;
-                        return index(ijk[0], ijk[1], ijk[2]);
-                    };
-                    int runs = 0;
-                    for (int t = 0; t < n1; ++t) {
-                        const std::int64_t n = at(t);
-                        if (near[n] && (t == 0 || !near[at(t - 1)])) ++runs;
-                        before[t] = runs;  // bands that start at or before t
-                    }
-                    for (int t = 0; t < n1; ++t) {
-                        const std::int64_t n = at(t);
-                        if (near[n]) continue;
-                        const int low = before[t], high = runs - before[t];  // t is away: no band spans it
-                        inside_votes[n] = static_cast<std::int8_t>(inside_votes[n] + (low % 2) + (high % 2));
-                    }
-                }
-        }
-        for (std::int64_t n = 0; n < count; ++n) {
-            if (near[n]) continue;
-            const int inside = inside_votes[n], outside = 6 - inside;
-            if (current[n] > 0 && inside >= options.parity_votes) current[n] = -1;
-            else if (current[n] < 0 && outside >= options.parity_votes) current[n] = 1;
-            else continue;
-            ++stats_.parity_flipped;
-        }
     }
 
     // 4. Per coarse sample: near the data (0), kept (its sign), or flipped (twice its original sign).

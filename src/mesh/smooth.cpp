@@ -1,4 +1,4 @@
-// Taubin smoothing (see include/pcp/mesh/smooth.hpp).
+// Bilateral normal filtering of a mesh (see include/pcp/mesh/smooth.hpp).
 #include "pcp/mesh/smooth.hpp"
 
 #include "pcp/core/error.hpp"
@@ -11,55 +11,6 @@
 #include <vector>
 
 namespace pcp {
-
-Mesh taubin_smooth(const Mesh& mesh, int iterations, double lambda, double mu) {
-    PCP_CHECK(iterations >= 0, "smoothing: iterations must be >= 0");
-    PCP_CHECK(lambda > 0 && lambda < 1, "smoothing: lambda must be in (0, 1)");
-    PCP_CHECK(mu >= lambda && mu < 1, "smoothing: mu must be in [lambda, 1)");
-    const Eigen::Index nv = mesh.vertices.rows();
-    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
-        for (int c = 0; c < 3; ++c)
-            PCP_CHECK(mesh.faces(f, c) >= 0 && mesh.faces(f, c) < nv,
-                      "smoothing: face " << f << " has vertex index " << mesh.faces(f, c) << " out of range");
-    Mesh out = mesh;
-    if (iterations == 0 || nv == 0) return out;
-    // One-ring adjacency (compressed rows, each undirected edge once per side).
-    std::vector<std::pair<std::int32_t, std::int32_t>> edges;
-    edges.reserve(static_cast<std::size_t>(mesh.faces.rows()) * 6);
-    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
-        for (int c = 0; c < 3; ++c) {
-            const auto a = static_cast<std::int32_t>(mesh.faces(f, c)), b = static_cast<std::int32_t>(mesh.faces(f, (c + 1) % 3));
-            edges.emplace_back(a, b);
-            edges.emplace_back(b, a);
-        }
-    std::sort(edges.begin(), edges.end());
-    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-    std::vector<std::int64_t> start(static_cast<std::size_t>(nv) + 1, 0);
-    for (const auto& e : edges) ++start[static_cast<std::size_t>(e.first) + 1];
-    for (Eigen::Index v = 0; v < nv; ++v) start[static_cast<std::size_t>(v) + 1] += start[static_cast<std::size_t>(v)];
-
-    Points next(nv, 3);
-    auto step = [&](double factor) {
-#pragma omp parallel for schedule(static)
-        for (Eigen::Index v = 0; v < nv; ++v) {
-            const std::int64_t b = start[static_cast<std::size_t>(v)], e = start[static_cast<std::size_t>(v) + 1];
-            if (b == e) {
-                next.row(v) = out.vertices.row(v);
-                continue;
-            }
-            Eigen::RowVector3d mean = Eigen::RowVector3d::Zero();
-            for (std::int64_t i = b; i < e; ++i) mean += out.vertices.row(edges[static_cast<std::size_t>(i)].second);
-            mean /= static_cast<double>(e - b);
-            next.row(v) = out.vertices.row(v) + factor * (mean - out.vertices.row(v));
-        }
-        out.vertices.swap(next);
-    };
-    for (int it = 0; it < iterations; ++it) {
-        step(lambda);
-        step(-mu);
-    }
-    return out;
-}
 
 namespace {
 

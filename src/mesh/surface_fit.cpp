@@ -172,7 +172,7 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
     PCP_CHECK(options.min_extent_k >= 0 && options.blister_k >= 0, "surface fit: min_extent_k and blister_k must be >= 0");
     PCP_CHECK(options.iterations >= 0 && options.iterations <= 100, "surface fit: iterations must be in [0, 100]");
     PCP_CHECK(options.surface_rounds >= 0, "surface fit: surface_rounds must be >= 0");
-    PCP_CHECK(options.neighbors >= 3 && options.noisy_neighbors >= 3, "surface fit: neighbors and noisy_neighbors must be >= 3");
+    PCP_CHECK(options.neighbors >= 3, "surface fit: neighbors must be >= 3");
     PCP_CHECK(options.bandwidth > 0, "surface fit: bandwidth must be > 0");
     PCP_CHECK(options.relax >= 0 && options.relax <= 1, "surface fit: relax must be in [0, 1]");
     PCP_CHECK(options.noise_spread >= 0 && std::isfinite(options.noise_spread) && options.far_side_k >= 0 && std::isfinite(options.far_side_k),

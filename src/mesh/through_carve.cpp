@@ -25,20 +25,6 @@ void for_each_inside_neighbour(const detail::Lattice& L, const std::vector<std::
                 if (L.at(inside, i + dx, j + dy, k + dz)) fn(L.index(i + dx, j + dy, k + dz));
 }
 
-/// The walls a piece would lay bare: the inside samples beside it (26-neighbours) that stay inside
-/// (not in `through`), each once; `mark` is all zero on entry and on return.
-void bare_walls(const detail::Lattice& L, const std::vector<std::uint8_t>& inside, const std::vector<std::uint8_t>& through,
-                const std::vector<std::int64_t>& piece, std::vector<std::uint8_t>& mark, std::vector<std::int64_t>& walls) {
-    walls.clear();
-    for (std::int64_t g : piece)
-        for_each_inside_neighbour(L, inside, g, [&](std::size_t h) {
-            if (through[h] || mark[h]) return;
-            mark[h] = 1;
-            walls.push_back(static_cast<std::int64_t>(h));
-        });
-    for (std::int64_t h : walls) mark[static_cast<std::size_t>(h)] = 0;
-}
-
 }  // namespace
 
 ThroughCarveStats carve_through_lines(SdfGrid& grid, const KdTree& cloud, const ThroughCarveOptions& o) {
@@ -49,7 +35,6 @@ ThroughCarveStats carve_through_lines(SdfGrid& grid, const KdTree& cloud, const 
               "through carve: min_through_lines must be in 1..directions, got " << o.min_through_lines);
     PCP_CHECK(std::isfinite(o.dilation) && o.dilation > 0.0, "through carve: dilation must be > 0");
     PCP_CHECK(std::isfinite(o.max_distance) && o.max_distance > 0.0, "through carve: max_distance must be > 0");
-    PCP_CHECK(o.min_wall_support >= 0.0 && o.min_wall_support <= 1.0, "through carve: min_wall_support must be in [0, 1]");
     ThroughCarveStats st;
     if (!o.enabled) return st;
     detail::Lattice L;
@@ -112,21 +97,15 @@ ThroughCarveStats carve_through_lines(SdfGrid& grid, const KdTree& cloud, const 
         front.swap(found);
     }
 
-    // 3. Their connected pieces, each made outside when the walls it lays bare stand on the data.
-    std::vector<std::uint8_t> seen(inside.size(), 0), mark(inside.size(), 0), carve(inside.size(), 0);
-    std::vector<std::int64_t> piece, walls;
+    // 3. Their connected pieces, made outside.
+    std::vector<std::uint8_t> seen(inside.size(), 0), carve(inside.size(), 0);
+    std::vector<std::int64_t> piece;
     for (std::int64_t g0 = 0; g0 < L.total; ++g0) {
         if (!through[static_cast<std::size_t>(g0)] || seen[static_cast<std::size_t>(g0)]) continue;
         piece.clear();
         seen[static_cast<std::size_t>(g0)] = 1;
         detail::flood_26(L, g0, seen, [&](std::size_t h) { return through[h] != 0; }, [&](std::int64_t g) { piece.push_back(g); });
         ++st.pieces;
-        if (o.min_wall_support > 0) {  // the bared walls only matter when they must stand on the data
-            bare_walls(L, inside, through, piece, mark, walls);
-            std::int64_t on_data = 0;
-            for (std::int64_t h : walls) on_data += lines.clearance(position(h)) == 0;
-            if (static_cast<double>(on_data) < o.min_wall_support * static_cast<double>(walls.size())) continue;
-        }
         ++st.opened;
         st.carved += static_cast<std::int64_t>(piece.size());
         for (std::int64_t g : piece) carve[static_cast<std::size_t>(g)] = 1;

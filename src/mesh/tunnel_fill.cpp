@@ -70,29 +70,6 @@ std::vector<Piece> closing_pieces(const Lattice& L, const std::vector<std::uint8
     return pieces;
 }
 
-/// Whether the inside samples next to `piece` stay connected (26-neighbours) through the inside
-/// without it: a flood fill from one of them that must reach all the others.
-bool inside_stays_connected(const Lattice& L, const std::vector<std::uint8_t>& inside, const std::vector<std::int64_t>& piece) {
-    std::vector<std::uint8_t> blocked(static_cast<std::size_t>(L.total), 0);
-    for (std::int64_t g : piece) blocked[static_cast<std::size_t>(g)] = 1;
-    std::vector<std::int64_t> rim;
-    for (std::int64_t g : piece) {
-        const int i = int(g % L.n1), j = int((g / L.n1) % L.n1), k = int(g / L.n1s);
-        for (int dz = -1; dz <= 1; ++dz)
-            for (int dy = -1; dy <= 1; ++dy)
-                for (int dx = -1; dx <= 1; ++dx)
-                    if (L.at(inside, i + dx, j + dy, k + dz) && !blocked[L.index(i + dx, j + dy, k + dz)])
-                        rim.push_back(static_cast<std::int64_t>(L.index(i + dx, j + dy, k + dz)));
-    }
-    if (rim.empty()) return true;
-    std::vector<std::uint8_t> reached(static_cast<std::size_t>(L.total), 0);
-    reached[static_cast<std::size_t>(rim.front())] = 1;
-    flood_26(L, rim.front(), reached, [&](std::size_t h) { return inside[h] && !blocked[h]; }, [](std::int64_t) {});
-    for (std::int64_t g : rim)
-        if (!reached[static_cast<std::size_t>(g)]) return false;
-    return true;
-}
-
 }  // namespace
 
 TunnelFillStats fill_tunnels(SdfGrid& grid, const TunnelFillOptions& options) {
@@ -138,32 +115,6 @@ int solid_euler_characteristic(const SdfGrid& grid) {
                 if (in) chi += sign;
             }
     return static_cast<int>(chi);
-}
-
-BridgeCutStats cut_bridges(SdfGrid& grid, const TunnelFillOptions& options) {
-    BridgeCutStats st;
-    if (!options.enabled || !options.cut_bridges) return st;
-    Lattice L;
-    std::vector<std::uint8_t> inside;
-    if (!dense_inside(grid, options.max_samples, L, inside)) {
-        st.skipped = true;
-        return st;
-    }
-    std::vector<std::uint8_t> outside(inside.size());
-    for (std::size_t g = 0; g < inside.size(); ++g) outside[g] = !inside[g];
-    std::vector<std::uint8_t> cut(static_cast<std::size_t>(L.total), 0);
-    for (const Piece& piece : closing_pieces(L, outside)) {
-        ++st.candidates;
-        // A bridge: the outside's Euler characteristic rises when the piece joins it, and the
-        // solid around it stays in one piece (a thin neck between two parts of the solid scores
-        // the same and is kept).
-        if (piece.chi_change <= 0 || !inside_stays_connected(L, inside, piece.members)) continue;
-        ++st.cut;
-        st.cut_samples += static_cast<std::int64_t>(piece.members.size());
-        for (std::int64_t g : piece.members) cut[static_cast<std::size_t>(g)] = 1;
-    }
-    if (st.cut > 0) move_to_side(grid, cut, false);
-    return st;
 }
 
 }  // namespace pcp

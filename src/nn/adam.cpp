@@ -60,11 +60,8 @@ double LrSchedule::at(std::int64_t step) const {
         case Kind::Constant:
             return lr;
         case Kind::Cosine: {
-            const std::int64_t start = std::max(warmup_steps, decay_start);
-            double t = double(step);  // the step on the uncompressed schedule
-            if (compress_from >= 0 && step > compress_from && compress_to > compress_from && total_steps > compress_from)
-                t = double(compress_from) + double(step - compress_from) * double(total_steps - compress_from) /
-                                                double(compress_to - compress_from);
+            const std::int64_t start = warmup_steps;
+            const double t = double(step);
             if (t < double(start)) return lr;
             const double span = double(std::max<std::int64_t>(total_steps - start, 1));
             const double x = std::min(1.0, (t - double(start)) / span);

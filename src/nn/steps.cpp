@@ -72,8 +72,7 @@ template <class S>
 Stage2Workspace<S>::Stage2Workspace(const BranchMlpShape& qs, const BranchMlpShape& d,
                                     int max_queries, Stage2Config cfg)
     : config(cfg), qn(qs, max_queries), dec(d, max_queries), q_local(d.in_a, max_queries),
-      dL_ds(max_queries), dL_dg(d.in_a, cfg.train_decoder ? max_queries : 0),
-      guide_labels(Vec<S>::Zero(max_queries)) {
+      dL_ds(max_queries), dL_dg(d.in_a, cfg.train_decoder ? max_queries : 0) {
     const int D = d.in_a;
     PCP_CHECK(d.out == 1 && d.in_b >= 1 && qs.in_a == D &&
                   cfg.query_outputs(d.in_b, D) >= 1 && qs.out == cfg.query_outputs(d.in_b, D),
@@ -129,32 +128,6 @@ void stage2_forward(const Stage2Config& cfg, BranchMlpCache<S>& qn, BranchMlpCac
     }
 }
 
-/// The stage-2 loss of n columns: the pulling loss of the first n - guided, plus the sign guide's
-/// hinge on the last `guided` (see Stage2Workspace::guided). lambda into dL_ds (n entries, or none),
-/// v into dL_dg (3 x n, or none; zero for the guided columns).
-template <class S>
-double stage2_loss(const CMatRef<S>& q_g, const CMatRef<S>& s, const CMatRef<S>& g, const CMatRef<S>& t,
-                   Eigen::Index guided, const Vec<S>& labels, S weight, VecRef<S> dL_ds, MatRef<S> dL_dg) {
-    const Eigen::Index n = q_g.cols();
-    PCP_CHECK(guided >= 0 && guided < n && guided <= labels.size(),
-              "nn::stage 2: " << guided << " guided columns of " << n << " (at least one pulled query is needed)");
-    const Eigen::Index np = n - guided;
-    const bool want_lambda = dL_ds.size() > 0, want_v = dL_dg.cols() > 0;
-    double L = pull_loss<S>(q_g.leftCols(np), s.leftCols(np), g.leftCols(np), t.leftCols(np),
-                            want_lambda ? dL_ds.head(np) : dL_ds.head(0), want_v ? dL_dg.leftCols(np) : dL_dg.leftCols(0));
-    if (guided == 0) return L;
-    const S scale = weight / S(guided);
-    double hinge = 0.0;
-    for (Eigen::Index j = 0; j < guided; ++j) {
-        const S y = labels(j), sj = s(0, np + j);
-        const bool wrong = -y * sj > S(0);
-        if (wrong) hinge += double(-y * sj);
-        if (want_lambda) dL_ds(np + j) = wrong ? -scale * y : S(0);
-    }
-    if (want_v) dL_dg.middleCols(np, guided).setZero();
-    return L + double(weight) * hinge / double(guided);
-}
-
 }  // namespace
 
 template <class S>
@@ -168,8 +141,7 @@ double Stage2Workspace<S>::loss(const BranchMlp<S>& Q, const BranchMlp<S>& F, co
                                 const CMatRef<S>& t, const CMatRef<S>& codes, const CMatRef<S>& cond) {
     stage2_forward(config, qn, dec, q_local, Q, F, q_g, codes, cond, true);
     const Eigen::Index n = q_g.cols();
-    return stage2_loss<S>(q_g, dec.out.leftCols(n), dec.g_a.leftCols(n), t, guided, guide_labels, guide_weight,
-                          dL_ds.head(0), dec.tan0.leftCols(0));
+    return pull_loss<S>(q_g, dec.out.leftCols(n), dec.g_a.leftCols(n), t, dL_ds.head(0), dec.tan0.leftCols(0));
 }
 
 template <class S>
@@ -197,8 +169,8 @@ double Stage2Workspace<S>::loss_and_grad(const BranchMlp<S>& Q, const BranchMlp<
     // Pulling loss at q_g (paper eq. 5). Q needs only lambda -- g is piecewise constant in
     // (q_l', f'), so dL/dq_l' = lambda g_q and dL/df' = lambda g_f (METHOD.md §4); F's weights
     // (when trained) also need v = dL/dg.
-    const double L = stage2_loss<S>(q_g, dec.out.leftCols(n), dec.g_a.leftCols(n), t, guided, guide_labels,
-                                    guide_weight, dL_ds.head(n), dL_dg.leftCols(config.train_decoder ? n : 0));
+    const double L = pull_loss<S>(q_g, dec.out.leftCols(n), dec.g_a.leftCols(n), t, dL_ds.head(n),
+                                  dL_dg.leftCols(config.train_decoder ? n : 0));
     const auto lam_row = dL_ds.head(n).transpose().array();
     auto seed = qn.dL_dout.leftCols(n);
     int row = 0;
@@ -296,7 +268,7 @@ Stage2Trainer<S>::Stage2Trainer(BranchMlp<S> qn, BranchMlp<S> d, int max_queries
 
 template <class S>
 int Stage2Trainer<S>::parts_for(Eigen::Index n) const {
-    if (!config.is_method() || workspace.guided > 0 || n < 2) return 1;
+    if (!config.is_method() || n < 2) return 1;
     const Eigen::Index want = batch_parts > 0 ? Eigen::Index(batch_parts)
                                               : std::min<Eigen::Index>(Eigen::nbThreads(), n / kMinPartQueries);
     return int(std::clamp<Eigen::Index>(want, 1, n));

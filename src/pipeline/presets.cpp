@@ -103,7 +103,7 @@ ReconstructOptions ReconstructOptions::preset(const std::string& name) {
         o.prior_source = PriorSource::SelfPrior;  // measured on rooms with a self-prior only
         o.denoise.mode_width = 0;  // and with the plane projection
         o.denoise.auto_passes = 3;  // three passes of it
-        o.recentre.noisy = false;  // and without the recentring (not measured on rooms)
+        o.noisy.recentre = false;  // and without the recentring (not measured on rooms)
         // A room's detail is spread over a large area at 512 cells: keep up to a million points
         // (the 200,000 of the other presets were measured on objects).
         o.max_fit_points = 1000000;
@@ -119,6 +119,11 @@ ReconstructOptions ReconstructOptions::preset(const std::string& name) {
         return o;
     }
     PCP_FAIL("unknown reconstruction preset '" << name << "' (use paper, default, fast or scene)");
+}
+
+bool ReconstructOptions::needs_visibility_labels() const {
+    return (sign_repair.enabled && sign_repair.min_label_votes > 0) || (cavity_fill.enabled && cavity_fill.min_label_votes > 0) ||
+           (winding_sign.enabled && winding_sign.orient_by_labels && !scene.enabled);
 }
 
 }  // namespace pcp

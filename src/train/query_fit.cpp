@@ -82,13 +82,6 @@ struct QueryNetFitter::Impl {
     std::unique_ptr<nn::Stage2Trainer<float>> trainer;
     MatF q, t, codes;       ///< batch buffers; codes: K x batch one-hot, 0 x 0 for one cloud
     detail::LossWindow recent{100};
-    /// The stop rule's state (QueryFitOptions::stop): the planned end, the step of the plateau
-    /// (-1: none yet), the previous window's mean loss and the current window's sum.
-    struct StopState {
-        std::int64_t end = 0;
-        std::int64_t plateau = -1;
-        double previous = 0.0, sum = 0.0;
-    } stop;
     mutable std::vector<std::unique_ptr<nn::GlobalSdfCache<float>>> caches;  ///< one per thread
     nn::Stage2Config config;
     // pointnet-code: the frozen encoder's condition of each region (C x R), the region of each
@@ -98,52 +91,6 @@ struct QueryNetFitter::Impl {
     Eigen::Vector3f grid_lo = Eigen::Vector3f::Zero(), grid_extent = Eigen::Vector3f::Zero();
     int grid = 1;
     MatF cond;              ///< C x batch: the gathered conditions of a step
-    // The sign guide: the labelled cells, and the guided queries of a step (the last `guided`
-    // columns of q).
-    VisibilityLabels labels;
-    int guided = 0;
-    PointsF guide_points;
-    Eigen::VectorXf guide_values;
-
-    nn::LrSchedule base_lr;  ///< the schedule's own rate (make_optim), before the stop rule's end
-
-    /// The stop rule's end: a plateau at `start`, the fit ends at `end`. A cosine schedule runs the
-    /// rest of its decay in start .. end (nn::LrSchedule::compress_from); a constant one decays
-    /// from there (cosine to 0.02 x its rate, reached at `end`).
-    void set_cooldown(std::int64_t start, std::int64_t end) {
-        nn::LrSchedule& lr = trainer->options.lr;
-        lr = base_lr;
-        if (base_lr.kind == nn::LrSchedule::Kind::Cosine) {
-            lr.compress_from = start;
-            lr.compress_to = end;
-        } else {
-            lr.kind = nn::LrSchedule::Kind::Cosine;
-            lr.final_lr = 0.02 * lr.lr;
-            lr.decay_start = start;
-            lr.total_steps = end;
-        }
-    }
-
-    /// The stop rule after the step that ended with `done` steps and had loss `loss`.
-    void update_stop(std::int64_t done, double loss) {
-        const StopRule& rule = options.stop;
-        if (!rule.enabled || stop.plateau >= 0) return;
-        stop.sum += loss;
-        if (done % rule.window != 0) return;
-        const double mean = stop.sum / static_cast<double>(rule.window);
-        if (stop.previous > 0.0 && done >= rule.min_steps && stop.previous - mean < rule.tolerance * stop.previous) {
-            stop.plateau = done;
-            const std::int64_t cooldown = std::max(rule.min_cooldown, static_cast<std::int64_t>(std::llround(
-                                                                          rule.cooldown_fraction * static_cast<double>(done))));
-            if (done + cooldown < stop.end) {
-                stop.end = done + cooldown;
-                set_cooldown(done, stop.end);
-            }
-        }
-        stop.previous = mean;
-        stop.sum = 0.0;
-    }
-
     int region_of(const Eigen::Vector3f& p) const {
         int id = 0;
         for (int c = 2; c >= 0; --c) {
@@ -158,8 +105,7 @@ struct QueryNetFitter::Impl {
         for (Eigen::Index i = 0; i < pts.cols(); ++i) dst.col(i) = region_cond.col(region_of(pts.col(i)));
     }
     void prepare_region_conditions(const LocalPrior& prior);
-    void init(const std::vector<const PreparedCloud*>& clouds, const LocalPrior& prior, const QueryFitOptions& options,
-              const VisibilityLabels* labels);
+    void init(const std::vector<const PreparedCloud*>& clouds, const LocalPrior& prior, const QueryFitOptions& options);
 };
 
 void QueryNetFitter::Impl::prepare_region_conditions(const LocalPrior& prior) {
@@ -192,20 +138,19 @@ void QueryNetFitter::Impl::prepare_region_conditions(const LocalPrior& prior) {
     }
 }
 
-QueryNetFitter::QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& prior, const QueryFitOptions& options,
-                               const VisibilityLabels* labels)
+QueryNetFitter::QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& prior, const QueryFitOptions& options)
     : impl_(std::make_unique<Impl>()) {
-    impl_->init({&cloud}, prior, options, labels);
+    impl_->init({&cloud}, prior, options);
 }
 
 QueryNetFitter::QueryNetFitter(const std::vector<const PreparedCloud*>& clouds, const LocalPrior& prior,
                                const QueryFitOptions& options)
     : impl_(std::make_unique<Impl>()) {
-    impl_->init(clouds, prior, options, nullptr);
+    impl_->init(clouds, prior, options);
 }
 
 void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_in, const LocalPrior& prior,
-                                const QueryFitOptions& options_in, const VisibilityLabels* labels_in) {
+                                const QueryFitOptions& options_in) {
     Impl& m = *this;
     m.options = options_in;
     const QueryFitOptions& opts = m.options;
@@ -220,8 +165,8 @@ void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_
     PCP_CHECK(opts.queries_per_step >= 1, "query fitting: queries_per_step must be >= 1");
     PCP_CHECK(opts.batch_parts >= 0, "query fitting: batch_parts must be >= 0 (0 = one per thread)");
     PCP_CHECK(opts.width >= 1 && opts.depth >= 1, "query fitting: network sizes must be >= 1");
-    PCP_CHECK(K == 1 || (opts.ablation == QueryAblation::None && !opts.sign_guide.enabled),
-              "query fitting of " << K << " clouds with one-hot codes: only the method itself (ablation none, no sign guide)");
+    PCP_CHECK(K == 1 || opts.ablation == QueryAblation::None,
+              "query fitting of " << K << " clouds with one-hot codes: only the method itself (ablation none)");
     for (const PreparedCloud* c : clouds_in)
         PCP_CHECK(c->size() >= min_points_for(opts.sampling),
                   c->name() << ": " << c->size() << " points; the query spread needs at least " << min_points_for(opts.sampling));
@@ -254,15 +199,6 @@ void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_
             }
         }
     }
-    if (opts.sign_guide.enabled) {
-        const SignGuideOptions& g = opts.sign_guide;
-        PCP_CHECK(g.fraction > 0.0 && g.fraction <= 1.0 && g.weight > 0.0 && std::isfinite(g.weight) && g.until > 0.0 &&
-                      g.until <= 1.0,
-                  "query fitting: sign guide fraction and until must be in (0, 1], weight > 0");
-        m.labels = labels_in ? *labels_in : label_by_visibility(first.tree(), g.visibility);
-        if (!m.labels.inside_cells.empty() || !m.labels.outside_cells.empty())
-            m.guided = std::max(1, static_cast<int>(std::lround(g.fraction * opts.queries_per_step)));
-    }
     m.config = stage2_config(opts.ablation);
     const int C = prior.decoder().shape.in_b;
     nn::BranchMlp<float> query_net(nn::stage2_query_shape(m.config, C, opts.width, opts.depth, m.num_codes));
@@ -277,24 +213,11 @@ void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_
     }
     if (opts.ablation == QueryAblation::PointNetCode) {
         m.prepare_region_conditions(prior);
-        m.cond.resize(C, opts.queries_per_step + m.guided);
+        m.cond.resize(C, opts.queries_per_step);
     }
-    m.trainer = std::make_unique<nn::Stage2Trainer<float>>(query_net, decoder, opts.queries_per_step + m.guided,
+    m.trainer = std::make_unique<nn::Stage2Trainer<float>>(query_net, decoder, opts.queries_per_step,
                                                            detail::make_optim(sched, opts.steps), m.config);
-    m.trainer->workspace.guide_weight = static_cast<float>(opts.sign_guide.weight);
     m.trainer->batch_parts = opts.batch_parts;
-    m.stop.end = opts.steps;
-    m.base_lr = m.trainer->options.lr;
-    if (opts.stop.enabled) {
-        const StopRule& rule = opts.stop;
-        PCP_CHECK(rule.window >= 1 && rule.tolerance >= 0.0 && rule.min_steps >= 0 && rule.cooldown_fraction >= 0.0 &&
-                      rule.min_cooldown >= 1,
-                  "query fitting: the stop rule needs window >= 1, min_cooldown >= 1 and non-negative settings");
-        // A constant rate: the peak until a plateau; without one, the cooldown ends at the cap.
-        if (m.base_lr.kind != nn::LrSchedule::Kind::Cosine) {
-            m.set_cooldown(std::max<std::int64_t>(sched.warmup_steps, opts.steps - rule.min_cooldown), opts.steps);
-        }
-    }
     if (opts.ablation == QueryAblation::FreeCode) {  // DeepSDF's code initialisation, N(0, 1/C)
         nn::Rng crng(sched.seed, 204);
         for (Eigen::Index i = 0; i < m.trainer->code.size(); ++i)
@@ -307,18 +230,8 @@ void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_
            << " warmup=" << sched.warmup_steps << " clip=" << sched.clip_norm << " seed=" << sched.seed
            << " qpp=" << opts.sampling.queries_per_point << " spreads=";
         for (float x : opts.sampling.spreads) fp << x << ",";
-        if (opts.stop.enabled)
-            fp << " stop=2/" << opts.stop.window << "/" << opts.stop.tolerance << "/" << opts.stop.min_steps << "/"
-               << opts.stop.cooldown_fraction << "/" << opts.stop.min_cooldown;
         fp << " uniform=" << opts.sampling.uniform_fraction << "/"
            << opts.sampling.uniform_margin << " points=" << first.size();
-        if (m.guided > 0) {
-            const SignGuideOptions& g = opts.sign_guide;
-            const VisibilityOptions& v = g.visibility;
-            fp << " guide=" << g.fraction << "/" << g.weight << "/" << g.until << "/" << v.margin << "/" << v.resolution << "/"
-               << v.occupancy_resolution << "/" << v.dilation << "/" << v.min_distance << "/" << v.rays << "/"
-               << v.outside_fraction;
-        }
         if (K > 1) {
             fp << " clouds=" << K << " points=";
             for (const PreparedCloud* c : clouds_in) fp << c->size() << ",";
@@ -333,8 +246,8 @@ void QueryNetFitter::Impl::init(const std::vector<const PreparedCloud*>& clouds_
            << " prior=" << nn::fnv1a64(prior.decoder().params.data(), static_cast<std::size_t>(prior.decoder().params.size()) * sizeof(float));
         m.checkpoint_id.fingerprint = fp.str();
     }
-    m.q.resize(3, opts.queries_per_step + m.guided);
-    m.t.setZero(3, opts.queries_per_step + m.guided);
+    m.q.resize(3, opts.queries_per_step);
+    m.t.setZero(3, opts.queries_per_step);
     if (K > 1) m.codes.setZero(K, opts.queries_per_step);
 }
 
@@ -348,7 +261,6 @@ const PreparedCloud& QueryNetFitter::cloud(int index) const {
 }
 int QueryNetFitter::num_clouds() const { return static_cast<int>(impl_->clouds.size()); }
 double QueryNetFitter::recent_loss() const { return impl_->recent.mean(); }
-int QueryNetFitter::guided_per_step() const { return impl_->guided; }
 std::int64_t QueryNetFitter::pool_size() const { return impl_->queries.cols(); }
 
 double QueryNetFitter::step() {
@@ -370,36 +282,23 @@ double QueryNetFitter::step() {
             m.codes(static_cast<Eigen::Index>(k), c) = 1.0f;
         }
     }
-    const bool guiding = m.guided > 0 && static_cast<double>(s) < m.options.sign_guide.until * static_cast<double>(m.options.steps);
-    const Eigen::Index cols = batch + (guiding ? m.guided : 0);
-    m.trainer->workspace.guided = 0;
-    if (guiding) {
-        sample_labelled_points(m.labels, m.guided, m.options.schedule.seed ^ 0x5EED0006ull, static_cast<std::uint64_t>(s),
-                               m.guide_points, m.guide_values);
-        m.q.rightCols(m.guided) = m.guide_points.transpose();
-        m.trainer->workspace.guided = m.guided;
-        m.trainer->workspace.guide_labels.head(m.guided) = m.guide_values;
-    }
     double loss;
     if (m.config.condition == nn::QueryCondition::Given) {
-        m.gather_conditions(m.q.leftCols(cols), m.cond.leftCols(cols));
-        loss = m.trainer->step(m.q.leftCols(cols), m.t.leftCols(cols), m.codes, m.cond.leftCols(cols));
+        m.gather_conditions(m.q, m.cond);
+        loss = m.trainer->step(m.q, m.t, m.codes, m.cond);
     } else {
-        loss = m.trainer->step(m.q.leftCols(cols), m.t.leftCols(cols), m.codes);
+        loss = m.trainer->step(m.q, m.t, m.codes);
     }
     detail::check_loss(loss, "query fitting", s);
     m.recent.push(loss);
-    m.update_stop(s + 1, loss);
     return loss;
 }
 
 bool QueryNetFitter::run() {
     const Impl& m = *impl_;
-    return detail::run_step_loop(*this, "query-net", m.options.steps, m.options.schedule, [&m] { return m.stop.end; });
+    return detail::run_step_loop(*this, "query-net", m.options.steps, m.options.schedule);
 }
 
-std::int64_t QueryNetFitter::planned_steps() const { return impl_->stop.end; }
-std::int64_t QueryNetFitter::plateau_step() const { return impl_->stop.plateau; }
 
 void QueryNetFitter::sdf(const Eigen::Ref<const PointsF>& unit_points, Eigen::Ref<Eigen::VectorXf> values) const {
     PCP_CHECK(num_clouds() == 1, "query net sdf: " << num_clouds() << " clouds were fitted; say which one");
@@ -466,12 +365,6 @@ void QueryNetFitter::checkpoint(const std::string& path) const {
         meta.add_number("code_adam_t", tr.adam_code.t);
     }
     meta.add("recent_losses", m.recent.text());
-    if (m.options.stop.enabled) {  // exact: 17 digits
-        meta.add_number("stop_end", m.stop.end);
-        meta.add_number("stop_plateau", m.stop.plateau);
-        meta.add_number("stop_previous", m.stop.previous);
-        meta.add_number("stop_sum", m.stop.sum);
-    }
     file.metadata = meta.text();
     file.nets.push_back(nn::make_record("query_net", tr.query_net, &tr.adam_query));
     if (tr.config.train_decoder) file.nets.push_back(nn::make_record("decoder", tr.decoder, &tr.adam_decoder));
@@ -501,17 +394,6 @@ void QueryNetFitter::resume(const std::string& path) {
     }
     m.trainer->steps = static_cast<std::int64_t>(file.step);
     m.recent.restore(meta.has("recent_losses") ? meta.get("recent_losses") : "", path);
-    if (m.options.stop.enabled) {
-        Impl::StopState st;
-        st.end = meta.number<std::int64_t>("stop_end");
-        st.plateau = meta.number<std::int64_t>("stop_plateau");
-        st.previous = meta.number<double>("stop_previous");
-        st.sum = meta.number<double>("stop_sum");
-        PCP_CHECK(st.end >= m.trainer->steps && st.end <= m.options.steps && st.plateau <= st.end,
-                  path << ": inconsistent stop-rule state (end " << st.end << ", plateau " << st.plateau << ")");
-        m.stop = st;
-        if (st.plateau >= 0 && st.end < m.options.steps) m.set_cooldown(st.plateau, st.end);
-    }
 }
 
 }  // namespace pcp

@@ -71,12 +71,8 @@ nn::NetFile<float> load_checkpoint(const std::string& path, const CheckpointId& 
 /// schedule.checkpoint_path when that file exists. Then it steps until `total`, reports progress
 /// every progress_every steps, writes a checkpoint every checkpoint_every steps, and when the
 /// progress callback asks to stop, writes a checkpoint and returns false.
-/// `planned` (optional) gives the total anew after every step (the query fit's stop rule moves
-/// it); without it the total is fixed.
 template <class Trainer>
-bool run_step_loop(Trainer& trainer, const char* stage, std::int64_t total, const TrainingSchedule& s,
-                   const std::function<std::int64_t()>& planned = {}) {
-    if (planned) total = planned();
+bool run_step_loop(Trainer& trainer, const char* stage, std::int64_t total, const TrainingSchedule& s) {
     if (s.resume && !s.checkpoint_path.empty() && std::filesystem::exists(s.checkpoint_path) && trainer.steps_done() == 0)
         trainer.resume(s.checkpoint_path);
     const auto start = std::chrono::steady_clock::now();
@@ -96,7 +92,6 @@ bool run_step_loop(Trainer& trainer, const char* stage, std::int64_t total, cons
     if (!report()) return false;
     while (trainer.steps_done() < total) {
         trainer.step();
-        if (planned) total = planned();
         const std::int64_t done = trainer.steps_done();
         if (!s.checkpoint_path.empty() && s.checkpoint_every > 0 && done % s.checkpoint_every == 0)
             trainer.checkpoint(s.checkpoint_path);

@@ -183,9 +183,9 @@ TEST_CASE("cli: usage errors exit 2, --help exits 0 and lists defaults", "[cli]"
     CHECK(run(bin("pcp_eval") + " only_one.ply").exit_code == 2);
     CHECK(run(bin("pcp_eval") + " a.ply b.ply --protocol famous").exit_code == 2);
     CHECK(run(bin("pcp_train") + " --grid 0 x.ply").exit_code == 2);
-    const RunResult parity = run(bin("pcp_reconstruct") + " --sign-repair-parity 7 x.ply");
-    CHECK(parity.exit_code == 2);
-    CHECK(parity.err.find("--sign-repair-parity must be in [0, 6]") != std::string::npos);
+    const RunResult coarse = run(bin("pcp_reconstruct") + " --sign-repair-resolution 300 x.ply");
+    CHECK(coarse.exit_code == 2);
+    CHECK(coarse.err.find("--sign-repair-resolution must be in [2, 256]") != std::string::npos);
 }
 
 TEST_CASE("cli: --ablation takes the paper's ablation names, others exit 2 with the list", "[cli]") {
@@ -219,15 +219,12 @@ TEST_CASE("cli: pcp_reconstruct's self-prior region options: bad values exit 2 n
     CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
 }
 
-TEST_CASE("cli: prior source, tuning and stop-rule options: bad values exit 2 naming the flag", "[cli]") {
+TEST_CASE("cli: prior source, tuning and batch options: bad values exit 2 naming the flag", "[cli]") {
     const std::vector<std::pair<std::string, std::string>> cases = {
         {" --prior-source both x.ply", "--prior-source must be auto, builtin or self (got 'both')"},
         {" --prior-source builtin --prior p.pcpm x.ply", "--prior-source and --prior exclude each other"},
         {" --self-prior --prior p.pcpm x.ply", "--self-prior and --prior exclude each other"},
         {" --prior-tune-steps -1 x.ply", "--prior-tune-steps must be >= 0"},
-        {" --stop-rule maybe x.ply", "--stop-rule must be on or off (got 'maybe')"},
-        {" --stop-tolerance 1.5 x.ply", "--stop-tolerance must be in [0, 1)"},
-        {" --stop-min-steps -1 x.ply", "--stop-min-steps must be >= 0"},
         {" --batch-parts -1 x.ply", "--batch-parts must be >= 0 (got -1)"},
         {" --depth 0 x.ply", "steps, batch, width, depth and learning rate must be positive"}};
     for (const auto& c : cases) {
@@ -337,14 +334,13 @@ TEST_CASE("cli: pcp_reconstruct's surface-fit, fine-repair and fair options: bad
     CHECK(good.err.find("/nonexistent/x.ply") != std::string::npos);
 }
 
-TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, through-carve, shell-centre, recentre, smooth, winding-sign, winding-normals, sign-guide and label-votes options: bad values exit 2 naming the flag", "[cli]") {
+TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, through-carve, shell-centre, recentre, smooth, winding-sign, winding-normals and label-votes options: bad values exit 2 naming the flag", "[cli]") {
     const struct {
         const char* args;
         const char* message;
     } cases[] = {
         {"--cavity-fill yes", "--cavity-fill must be on or off (got 'yes')"},
         {"--tunnel-fill maybe", "--tunnel-fill must be on or off (got 'maybe')"},
-        {"--bridge-cut maybe", "--bridge-cut must be on or off (got 'maybe')"},
         {"--through-carve 1", "--through-carve must be on or off (got '1')"},
         {"--shell-centre 2", "--shell-centre must be on or off (got '2')"},
         {"--recentre yes", "--recentre must be auto, on or off (got 'yes')"},
@@ -352,7 +348,6 @@ TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, through-carve, shell
         {"--winding-sign 1", "--winding-sign must be on or off (got '1')"},
         {"--winding-near -3", "--winding-near must be in [0, 100]"},
         {"--winding-normals mesh", "--winding-normals must be labels or field (got 'mesh')"},
-        {"--sign-guide yes", "--sign-guide must be on or off (got 'yes')"},
         {"--label-votes -1", "--label-votes must be >= 0"},
     };
     for (const auto& c : cases) {
@@ -362,7 +357,7 @@ TEST_CASE("cli: pcp_reconstruct's cavity-fill, tunnel-fill, through-carve, shell
         CHECK(r.err.find(c.message) != std::string::npos);
     }
     // Good values pass the option checks: the run then stops at the missing input, naming it.
-    const RunResult good = run(bin("pcp_reconstruct") + " --cavity-fill off --tunnel-fill off --bridge-cut off --through-carve off --shell-centre off --recentre on --smooth on --winding-sign on --winding-near 1 --winding-normals field --sign-guide on --label-votes 4 /nonexistent/x.ply -o '" +
+    const RunResult good = run(bin("pcp_reconstruct") + " --cavity-fill off --tunnel-fill off --through-carve off --shell-centre off --recentre on --smooth on --winding-sign on --winding-near 1 --winding-normals field --label-votes 4 /nonexistent/x.ply -o '" +
                                (case_dir("cavity_fill") / "o.ply").string() + "'");
     INFO("stderr: " << good.err);
     CHECK(good.exit_code == 1);

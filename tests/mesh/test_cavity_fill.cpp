@@ -9,6 +9,7 @@
 #include "pcp/cloud/visibility.hpp"
 #include "pcp/core/error.hpp"
 #include "pcp/mesh/cavity_fill.hpp"
+#include "pcp/reconstruct.hpp"
 #include "pcp/mesh/marching_cubes.hpp"
 #include "pcp/mesh/mesh_check.hpp"
 
@@ -157,7 +158,7 @@ TEST_CASE("cavity fill: a hollow solid perforated by wide tunnels is filled wher
     });
     pcp::SdfGrid labelled = original;
     pcp::CavityFillOptions noisy;  // what pcp::reconstruct uses on a denoised cloud
-    noisy.max_open = noisy.noisy_max_open;
+    noisy.max_open = pcp::NoisyCloudOptions().cavity_max_open;
     const pcp::CavityFillStats st = pcp::fill_cavities(labelled, noisy, &labels);
     CHECK(st.cavities == 1);
     CHECK(st.labelled_cavities == 1);
@@ -248,9 +249,6 @@ TEST_CASE("cavity fill: sparse grids are skipped, disabled is the identity, bad 
     CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
     bad = {};
     bad.max_open = 1.5;
-    CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
-    bad = {};
-    bad.noisy_max_open = -0.1;
     CHECK_THROWS_AS(pcp::fill_cavities(grid, bad), pcp::Error);
     bad = {};
     bad.min_label_votes = -1;

@@ -19,6 +19,7 @@
 #include "pcp/mesh/marching_cubes.hpp"
 #include "pcp/mesh/mesh_check.hpp"
 #include "pcp/mesh/surface_fit.hpp"
+#include "pcp/reconstruct.hpp"
 
 #include <limits>
 #include <catch2/catch.hpp>
@@ -186,7 +187,7 @@ TEST_CASE("surface fit: the last round against the surface removes the tangent p
     const pcp::KdTree tree(points);
     const auto bias = [&](const pcp::Mesh& m) { return (m.vertices.rowwise().norm().array() - R).mean(); };
     pcp::SurfaceFitOptions options;
-    options.neighbors = options.noisy_neighbors;  // as pcp::reconstruct on a noisy cloud
+    options.neighbors = pcp::NoisyCloudOptions().fit_neighbors;  // as pcp::reconstruct on a noisy cloud
     pcp::SurfaceFitOptions tangent = options;
     tangent.surface_rounds = 0;
     const pcp::Mesh shrunk = pcp::fit_surface_to_points(mesh, tree, tangent);
@@ -278,7 +279,7 @@ TEST_CASE("surface fit: the far side of a noisy plate does not pull a side inwar
     const pcp::Mesh mesh = mesh_of(plate_sdf(h), 120);
     const pcp::KdTree tree(noisy_plate_points(h, sigma, 5));
     pcp::SurfaceFitOptions o;
-    o.neighbors = o.noisy_neighbors;
+    o.neighbors = pcp::NoisyCloudOptions().fit_neighbors;
     o.far_side_clean = false;  // no cut without a spread
     const pcp::Mesh pulled = pcp::fit_surface_to_points(mesh, tree, o);
     o.noise_spread = sigma;
@@ -293,7 +294,7 @@ TEST_CASE("surface fit: the far side of a noisy plate does not pull a side inwar
     const pcp::Mesh bar = mesh_of(plate_sdf(hb), 120);
     const pcp::KdTree bar_tree(noisy_plate_points(hb, sigma, 6));
     pcp::SurfaceFitOptions ob;
-    ob.neighbors = ob.noisy_neighbors;
+    ob.neighbors = pcp::NoisyCloudOptions().fit_neighbors;
     ob.far_side_clean = false;
     const double plain = mean_broad_face_z(pcp::fit_surface_to_points(bar, bar_tree, ob));
     ob.noise_spread = sigma;

@@ -1,9 +1,8 @@
 // Tests for pcp/mesh/through_carve.hpp: a plate that the field spans across the gaps between four
 // slats is carved back into the slats (the points lie on the slats only); a narrow bore that the
 // field fills is carved open (and 64 directions miss it); a solid box keeps every inside sample,
-// a sphere scanned with a hole in its top its inside below the hole's rim; with min_wall_support, a
-// field too fat around a sphere's points is not pitted where the bared walls would hang in the
-// air; off, and a sparse grid, change nothing; bad options throw.
+// a sphere scanned with a hole in its top its inside below the hole's rim; off, and a sparse grid,
+// change nothing; bad options throw.
 #include "mc_test_util.hpp"
 #include "pcp/cloud/kdtree.hpp"
 #include "pcp/cloud/shapes.hpp"
@@ -172,8 +171,7 @@ TEST_CASE("through carve: a solid box and a sphere scanned with a hole keep thei
     // and the cap's middle is farther from the data than any candidate. Within a few sampling
     // scales of the points a line over the hole may pass the wall through a gap between the balls
     // at its other end: near the rim a groove goes, elsewhere a few samples next to the wall (the
-    // field of a real fit spans such a hole flat, in the rim's plane, and loses a few samples),
-    // unless a piece's bared walls must stand on the data.
+    // field of a real fit spans such a hole flat, in the rim's plane, and loses a few samples).
     pcp::PointsF all = pcp::sample_sphere(12000, 0.35, Eigen::Vector3d::Zero(), 9).points.cast<float>();
     std::vector<Eigen::Index> kept;
     for (Eigen::Index i = 0; i < all.rows(); ++i)
@@ -205,34 +203,6 @@ TEST_CASE("through carve: a solid box and a sphere scanned with a hole keep thei
     CHECK(sphere_st.carved * 20 < inside);
     // 64 cells over 1.2: sample (32, 32, 49) is (0, 0, 0.319), the cap's middle.
     CHECK(sphere_grid.value(32, 32, 49) < 0);
-    pcp::ThroughCarveOptions supported;
-    supported.min_wall_support = 0.5;
-    pcp::SdfGrid kept_grid = sphere_before;
-    CHECK(pcp::carve_through_lines(kept_grid, sphere_tree, supported).carved * 100 < sphere_st.carved);
-}
-
-TEST_CASE("through carve: with min_wall_support, no piece whose bared walls stand away from the data", "[through_carve]") {
-    // The points on a sphere of radius 0.2, the field a sphere of radius 0.3 whose centre is 0.1
-    // off along x: at x = -0.2 it sits on the points, elsewhere it bulges up to 0.2 beyond them,
-    // farther than max_distance. The samples of the bulge near the points see past them (tangent
-    // lines); carving them lays bare the rest of the bulge, walls that no point supports: with
-    // min_wall_support 0.5 that piece stays, with the default (any) it goes.
-    const pcp::KdTree tree(pcp::sample_sphere(8000, 0.2, Eigen::Vector3d::Zero(), 11).points.cast<float>());
-    const pcp::SdfGrid fat = dense_grid(sphere_sdf(Eigen::Vector3d(0.1, 0, 0), 0.3), 64);
-    pcp::ThroughCarveOptions supported;
-    supported.min_wall_support = 0.5;
-    pcp::SdfGrid grid = fat;
-    const pcp::ThroughCarveStats st = pcp::carve_through_lines(grid, tree, supported);
-    INFO("pieces " << st.pieces << ", opened " << st.opened << ", carved " << st.carved);
-    CHECK(st.pieces >= 1);
-    CHECK(st.opened < st.pieces);
-    // 64 cells over 1.2: sample (52, 32, 32) is (0.375, 0, 0), 0.175 beyond the points in the bulge.
-    CHECK(grid.value(52, 32, 32) < 0);
-    pcp::SdfGrid all = fat;
-    const pcp::ThroughCarveStats st_any = pcp::carve_through_lines(all, tree);
-    CHECK(st_any.opened == st_any.pieces);
-    CHECK(st_any.carved > st.carved);
-    CHECK(all.value(52, 32, 32) < 0);  // beyond max_distance: never a candidate
 }
 
 TEST_CASE("through carve: off, or a sparse grid, changes nothing, bad options throw", "[through_carve][heavy]") {
@@ -263,5 +233,4 @@ TEST_CASE("through carve: off, or a sparse grid, changes nothing, bad options th
     CHECK_THROWS_AS(carve_with([](pcp::ThroughCarveOptions& o) { o.min_through_lines = 1025; }), pcp::Error);
     CHECK_THROWS_AS(carve_with([](pcp::ThroughCarveOptions& o) { o.dilation = 0; }), pcp::Error);
     CHECK_THROWS_AS(carve_with([](pcp::ThroughCarveOptions& o) { o.max_distance = std::nan(""); }), pcp::Error);
-    CHECK_THROWS_AS(carve_with([](pcp::ThroughCarveOptions& o) { o.min_wall_support = 1.5; }), pcp::Error);
 }

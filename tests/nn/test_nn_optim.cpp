@@ -120,27 +120,6 @@ TEST_CASE("nn: learning-rate schedules and gradient clipping", "[nn]") {
     CHECK(cos.at(60) == Approx(0.5 * (1e-3 + 1e-5)));
     CHECK(cos.at(110) == Approx(1e-5));
     CHECK(cos.at(1000) == Approx(1e-5));
-    // A decay that starts later (the query fit's stop rule): the peak until decay_start.
-    cos.decay_start = 60;
-    CHECK(cos.at(59) == Approx(1e-3));
-    CHECK(cos.at(60) == Approx(1e-3));
-    CHECK(cos.at(85) == Approx(0.5 * (1e-3 + 1e-5)));
-    CHECK(cos.at(110) == Approx(1e-5));
-    cos.decay_start = 5;  // before the end of the warm-up: the warm-up's end
-    CHECK(cos.at(60) == Approx(0.5 * (1e-3 + 1e-5)));
-    // The stop rule's end of a cosine schedule: the rest of the decay (from step 35 to 110) in
-    // steps 35 .. 60, the same rates in the same order, the final rate from step 60 on.
-    cos.decay_start = -1;
-    const LrSchedule whole = cos;
-    cos.compress_from = 35;
-    cos.compress_to = 60;
-    for (std::int64_t s : {0, 9, 10, 20, 35}) CHECK(cos.at(s) == whole.at(s));
-    CHECK(cos.at(40) == Approx(whole.at(35 + 15)));   // 5 steps in = 15 of the whole schedule
-    CHECK(cos.at(45) == Approx(whole.at(65)));        // 10 steps in = 30
-    CHECK(cos.at(59) == Approx(whole.at(107)));
-    CHECK(cos.at(60) == Approx(1e-5));
-    CHECK(cos.at(500) == Approx(1e-5));
-    for (std::int64_t s = 36; s <= 60; ++s) CHECK(cos.at(s) < cos.at(s - 1));
 
     Vec<float> g1(2), g2(1);
     g1 << 3.0f, 0.0f;

@@ -470,7 +470,7 @@ TEST_CASE("nn: the stage-2 step in batch parts takes the whole batch's loss, gra
     }
 }
 
-TEST_CASE("nn: batch parts: one per thread, at most one per 128 queries, one for ablations and guided columns", "[nn]") {
+TEST_CASE("nn: batch parts: one per thread, at most one per 128 queries, one for ablations", "[nn]") {
     Rng rng(43, 0);
     BranchMlp<float> F(decoder_shape(kC, kH, kL));
     init_decoder_geometric(F, rng);
@@ -482,9 +482,6 @@ TEST_CASE("nn: batch parts: one per thread, at most one per 128 queries, one for
     CHECK(tr.parts_for(1000) == 4);
     CHECK(tr.parts_for(300) == 2);
     CHECK(tr.parts_for(100) == 1);
-    tr.workspace.guided = 10;
-    CHECK(tr.parts_for(1000) == 1);
-    tr.workspace.guided = 0;
     Stage2Config cfg;
     cfg.train_decoder = true;
     Stage2Trainer<float> ablation(Q, F, 1000, {}, cfg);

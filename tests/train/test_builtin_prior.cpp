@@ -110,9 +110,9 @@ TEST_CASE("reconstruct: the built-in prior frozen or tuned, a self-prior, and au
     CHECK(pcp::ReconstructOptions::preset("default").max_fit_points == 200000);
     CHECK(pcp::ReconstructOptions::preset("scene").max_fit_points == 1000000);
     // Noisy objects' meshes are recentred onto the noise's middle; rooms were measured without.
-    CHECK(pcp::ReconstructOptions::preset("default").recentre.noisy);
-    CHECK_FALSE(pcp::ReconstructOptions::preset("default").recentre.clean);
-    CHECK_FALSE(pcp::ReconstructOptions::preset("scene").recentre.noisy);
+    CHECK(pcp::ReconstructOptions::preset("default").noisy.recentre);
+    CHECK_FALSE(pcp::ReconstructOptions::preset("default").recentre.enabled);
+    CHECK_FALSE(pcp::ReconstructOptions::preset("scene").noisy.recentre);
 
     const pcp::Points clean = pcp::sample_sphere(12000, 0.4, Eigen::Vector3d::Zero(), 4).points;
     pcp::ReconstructOptions o = pcp::ReconstructOptions::preset("fast");

@@ -1,6 +1,6 @@
 // Inside / outside from the cloud alone, by visibility (not in the paper): the labels of the sign
-// repair's label vote (pcp/mesh/sign_repair.hpp, on by default) and of the stage-2 sign guide
-// (pcp/train/query_fit.hpp, off by default); measured in docs/BENCHMARKS.md, "Visibility labels".
+// repair's label vote (pcp/mesh/sign_repair.hpp), the cavity fill (cavity_fill.hpp) and the
+// winding sign's orientation (winding_sign.hpp).
 //
 // The pulling loss (METHOD.md §3) is blind to the sign of the field: q - F g/|g| is the same for F
 // and -F, so a fit may settle with the inside of a shape positive under a thin negative shell, or
@@ -21,7 +21,7 @@
 //  3. No ray escapes: inside (-1). At least outside_fraction of them escape, or at least
 //     min_through_lines of them escape at both ends (the cell lies on lines that cross no wall: a
 //     through-hole): outside (+1). Otherwise (a view out through a hole in the scan, the bottom
-//     of a deep slot): unknown (0), and the guide says nothing there.
+//     of a deep slot): unknown (0), and the labels say nothing there.
 //  4. The cells not outside then are counted again by ThroughLines (below), exactly, in
 //     line_directions fixed directions: with min_free_lines of them free of the balls, outside. A
 //     narrow bore's middle sees out along a cone of a few degrees only, which 64 random rays rarely
@@ -32,8 +32,8 @@
 //
 // Wrong labels are possible where no ray can see a true outside (an enclosed cavity, which no
 // scanner sees either; thin walls closing small pockets: abc_00010098) and where the data has a
-// gap wider than the dilation; their users therefore only act on the sign (the guide's hinge at
-// zero) or on a majority of a region's labels (the vote).
+// gap wider than the dilation; their users therefore act on a majority of a region's labels (the
+// votes) or only near points they orient with confidence.
 #pragma once
 
 #include "pcp/cloud/kdtree.hpp"
@@ -153,11 +153,5 @@ private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };
-
-/// `count` points drawn uniformly in the labelled cells (half in inside cells and half in outside
-/// cells when both exist; in proportion to the cells otherwise), with their labels (+1 / -1).
-/// Deterministic in (labels, count, seed, stream). Empty when no cell is labelled.
-void sample_labelled_points(const VisibilityLabels& labels, Eigen::Index count, std::uint64_t seed,
-                            std::uint64_t stream, PointsF& points, Eigen::VectorXf& values);
 
 }  // namespace pcp

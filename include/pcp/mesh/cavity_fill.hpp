@@ -59,12 +59,11 @@ namespace pcp {
 struct CavityFillOptions {
     bool enabled = true;
     double core_cells = 2.0;    ///< delta in units of the largest cell spacing (> 0)
-    /// A pocket is filled when at most this fraction of its boundary is open to the outside.
-    /// Measured on the shared cases (docs/BENCHMARKS.md): 0.5 on clean clouds (the bunny's hollow
-    /// body behind the holes of its shell is filled), 0.15 on noisy ones (at 0.5, pockets among the
-    /// sheets of abc_00994122's noise band are filled too: L2-CD doubles).
+    /// A pocket is filled when at most this fraction of its boundary is open to the outside: 0.5
+    /// on clean clouds (a hollow body behind the holes of its shell is filled); pcp::reconstruct
+    /// uses less on the clouds it denoised (NoisyCloudOptions::cavity_max_open), where pockets
+    /// among the sheets of a noise band are that open too.
     double max_open = 0.5;
-    double noisy_max_open = 0.15;  ///< what pcp::reconstruct uses instead of max_open for a denoised cloud
     std::int64_t max_samples = std::int64_t(1) << 24;  ///< (R + 1)^3 above this: skipped (R = 128: 2.1e6)
     /// With labels: a pocket with at least this many samples in inside cells (and at most 1/20 as
     /// many in outside cells) is filled up to labelled_max_open. 0 = the labels are ignored.

@@ -38,6 +38,10 @@ namespace pcp {
 
 struct SheetGapOptions {
     bool enabled = true;
+    /// pcp::reconstruct: only near the points whose thin level ReconstructOptions::thin_probe
+    /// raised (the solid callback says NaN elsewhere); set for the clouds it denoised, where the
+    /// sides that meet elsewhere are a noisy field's crumpled pockets, which moving apart roughens.
+    bool where_raised_only = false;
     double min_gap = 0.002;       ///< least separation of the two sides (unit-box units, the cloud's longest edge 1; > 0)
     int passes = 4;               ///< Jacobi passes (1..100)
     double opposite_cos = -0.7;   ///< n_i . n_j at most this for a partner ([-1, 0))

@@ -44,12 +44,6 @@ struct SignRepairOptions {
     double near_cells = 1.5;       ///< tau = max(near_cells * largest coarse spacing,
     double near_spacings = 2.0;    ///<           near_spacings * median distance between neighbouring points)
     double max_unsupported = 0.5;  ///< flip a component when more than this fraction of its boundary is away from data
-    /// After the component flips, a parity vote per coarse sample away from the data: along each
-    /// of the 6 axis rays to the grid's box, an odd number of crossed near-data bands votes
-    /// "inside". With `parity_votes` = v in 1..6, a sample whose sign disagrees with at least v
-    /// of its 6 votes is flipped (this also reaches regions connected to the box, such as a
-    /// second sheet inside a thick part with a gap in the data beside it). 0 = off.
-    int parity_votes = 0;
     /// With visibility labels (pcp/cloud/visibility.hpp, given to the constructor): after the
     /// component flips, a negative region whose labelled coarse samples mostly say outside (at
     /// least `min_label_votes` of them, more than say inside) is flipped, unless it touches the box:
@@ -70,7 +64,6 @@ struct SignRepairStats {
     int components = 0;                 ///< connected regions of one sign away from the data
     int flipped_components = 0;         ///< of which flipped
     std::int64_t flipped_samples = 0;   ///< coarse samples whose sign was flipped
-    std::int64_t parity_flipped = 0;    ///< of which by the parity vote (SignRepairOptions::parity_votes)
     int label_flipped = 0;              ///< regions flipped by the visibility labels (min_label_votes)
     double tau = 0;                     ///< the "near the data" distance used (unit-box units)
 };
@@ -86,7 +79,7 @@ public:
     /// @param cloud   a tree over the input cloud (its points: N x 3, same frame, N >= 2)
     /// The zero level set is repaired (pass the field minus the level for another one).
     /// Throws pcp::Error on bad options or a non-finite field value.
-    /// @param labels  visibility labels in the same frame (the sign guide's), or null
+    /// @param labels  visibility labels in the same frame, or null
     SignRepair(const SdfBatchFn& field, const Aabb& box, const KdTree& cloud, const SignRepairOptions& options = {},
                const VisibilityLabels* labels = nullptr);
 

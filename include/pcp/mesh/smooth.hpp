@@ -1,8 +1,7 @@
 // Mesh smoothing for noisy clouds (not in the paper). The surface of a noisy cloud keeps the
 // noise's bumps even after the surface fit (surface_fit.hpp), because the data under each vertex is
 // itself noisy: normal consistency suffers most (docs/BENCHMARKS.md, "Smoothing noisy clouds").
-// pcp::reconstruct runs the bilateral normal filter on the meshes of the clouds it denoised;
-// Taubin's smoothing is kept as the measured alternative (it rounds sharp edges).
+// pcp::reconstruct runs the bilateral normal filter on the meshes of the clouds it denoised.
 #pragma once
 
 #include "pcp/core/types.hpp"
@@ -15,7 +14,7 @@ namespace pcp {
 /// distance between face centroids, sigma_s = spatial x the mean such distance) x exp(-|n_f - n_g|^2
 /// / 2 sigma_r^2), `normal_iterations` times; then the vertices are moved `vertex_iterations` times
 /// onto the planes of their faces' filtered normals. Flat faces get flat and sharp edges stay sharp
-/// (the normals of the two sides differ by more than sigma_r), which Taubin's smoothing rounds.
+/// (the normals of the two sides differ by more than sigma_r), where a Laplacian smoothing rounds them.
 struct BilateralOptions {
     int normal_iterations = 40;
     int vertex_iterations = 40;
@@ -24,17 +23,10 @@ struct BilateralOptions {
 };
 Mesh bilateral_smooth(const Mesh& mesh, const BilateralOptions& options = {});
 
-/// Which final meshes pcp::reconstruct smooths, and how.
+/// Whether pcp::reconstruct smooths the final mesh, and how.
 struct SmoothOptions {
-    bool noisy = true;    ///< the meshes of noisy clouds (those the pipeline denoised)
-    bool clean = false;   ///< the meshes of clean clouds too
+    bool enabled = false;  ///< clean clouds' meshes (NoisyCloudOptions::smooth for the clouds the pipeline denoised)
     BilateralOptions bilateral;
 };
-
-/// Taubin's smoothing (Taubin 1995): `iterations` pairs of a shrinking step (lambda) and an
-/// inflating one (-mu) of the umbrella Laplacian (the mean of the one-ring minus the vertex).
-/// The mesh after `iterations` Taubin pairs (vertices move, faces stay; vertices on no face stay).
-/// Throws pcp::Error for bad options or a face index out of range.
-Mesh taubin_smooth(const Mesh& mesh, int iterations, double lambda = 0.5, double mu = 0.53);
 
 }  // namespace pcp

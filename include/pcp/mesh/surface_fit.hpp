@@ -46,16 +46,9 @@ struct SurfaceFitOptions {
     double blister_k = 1.0;       ///< a component (not the largest) within this x scale of the largest everywhere is removed (0: never)
     double move_k = 1.5;          ///< a vertex moves only when an input point lies within move_k x scale
     int iterations = 10;          ///< normal mean-shift + relaxation rounds (0: support filter only)
-    /// Input points per vertex (>= 3). Measured on the shared cases (docs/BENCHMARKS.md): 16 on
-    /// clean clouds, 32 on noisy ones (the pipeline uses noisy_neighbors when it denoised the cloud).
+    /// Input points per vertex (>= 3): 16 on clean clouds; pcp::reconstruct uses more on the
+    /// clouds it denoised (NoisyCloudOptions::fit_neighbors).
     int neighbors = 16;
-    int noisy_neighbors = 32;     ///< what pcp::reconstruct uses instead of `neighbors` for a denoised cloud
-    /// pcp::reconstruct fits the mesh of a denoised cloud to the input points as given, not to the
-    /// denoised ones: the denoiser's plane projection pulls points inward on curved parts (noisy
-    /// bunny: 0.00026 inside the GT against +0.00009 for the input, file units), and the fit's
-    /// averaging over noisy_neighbors does the denoising. Measured on every noisy shared case
-    /// (docs/BENCHMARKS.md, "Shell centring"): L2-CD and NC better on all eleven.
-    bool noisy_raw_points = true;
     double bandwidth = 1.0;       ///< the offset kernel's width, in units of the vertex's distance to its 10th nearest point
     double relax = 0.5;           ///< tangential relaxation per round, in [0, 1]
     /// The last this many rounds (>= 0) take each input point's offset to the mesh's surface
@@ -139,8 +132,7 @@ Mesh fit_surface_to_points(const Mesh& unit_mesh, const KdTree& cloud, const Sur
 /// Each point counts for the surface it is nearest to, so the far side of a thin part stays with
 /// its own side. Topology is unchanged (vertices move, faces stay).
 struct RecentreOptions {
-    bool noisy = true;      ///< pcp::reconstruct: the meshes of noisy clouds (those it denoised)
-    bool clean = false;     ///< pcp::reconstruct: the meshes of clean clouds too
+    bool enabled = false;   ///< pcp::reconstruct: clean clouds' meshes (NoisyCloudOptions::recentre for the clouds it denoised)
     double window_k = 2.0;  ///< the averaging window's width in units of the sampling scale (> 0)
     int passes = 2;         ///< assignment + move rounds, in [1, 20]
     double clip_k = 2.5;    ///< offsets beyond this x the robust spread are not counted (> 0)

@@ -20,8 +20,6 @@
 //     deep inside of a solid, whose lines are all blocked, is never reached).
 //  3. The candidates with at least min_through_lines free lines, in connected pieces (26-
 //     neighbours), are made outside (values negated, |F| kept, a small positive where F was 0).
-//     With min_wall_support > 0 a piece only when the walls it lays bare stand on the data: at
-//     least that share of the inside samples beside it that stay inside lie in blocked voxels.
 //
 // The directions are the same for every sample and many (1024), and the count is exact but for a
 // pixel: a bore 0.12 across and 0.4 long leaves about 4 % of them free from its middle, which 64
@@ -29,8 +27,8 @@
 // bores and slots of the ABC scans, whose walls the scanner barely saw, open (docs/BENCHMARKS.md,
 // "Lines through a bore": abc_00011084's bore, abc_00016513's slot and bolt holes, abc_00010071's
 // bore; ABC mean L2-CD x 100 0.0259 -> 0.0202 on a Zen 4). Their pieces' bared walls are mostly
-// where the scan saw nothing (5-20 % on the data), so the wall support, 0.5 until then, is off:
-// at 0.5 and at 0.1 those gains are lost. Then also a cap the scan missed loses a groove near the
+// where the scan saw nothing (5-20 % on the data), so no piece is asked for walls on the data
+// (a rule measured and rejected: at 0.5 and 0.1 of them on the data those gains are lost). Then also a cap the scan missed loses a groove near the
 // hole's rim, and a sample next to a wall may go where a line over the hole meets a gap between the
 // balls at its other end; the surface fit and the fairing take such dents back (the bunny, fandisk
 // and the scratch chairs, tables and statues of that session within their seeds' spread).
@@ -53,7 +51,6 @@ struct ThroughCarveOptions {
     int directions = 1024;        ///< line directions over the half-sphere, the same for every candidate (8..4096)
     int min_through_lines = 6;    ///< of those, lines that must cross no ball of the data (1..directions)
     double max_distance = 4.0;    ///< candidates at most this x sampling_scale from the data (> 0)
-    double min_wall_support = 0.0;  ///< share of a piece's bared walls that must stand on the data ([0, 1]; 0: any piece)
     std::int64_t max_samples = std::int64_t(1) << 24;  ///< (R + 1)^3 above this: skipped
 };
 

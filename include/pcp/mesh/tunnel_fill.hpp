@@ -33,11 +33,6 @@ namespace pcp {
 
 struct TunnelFillOptions {
     bool enabled = true;
-    /// Also the dual rule (cut_bridges): solid bridges two cells across or less cut where the
-    /// outside's Euler characteristic rises and the solid stays in one piece. Off by default: on a
-    /// thin wall already perforated by the field (abc_00010098) the strips between the holes are
-    /// such bridges and the cut widens the holes (docs/BENCHMARKS.md, "The bridge cut").
-    bool cut_bridges = false;
     std::int64_t max_samples = std::int64_t(1) << 24;  ///< (R + 1)^3 above this: skipped (R = 128: 2.1e6)
 };
 
@@ -56,23 +51,5 @@ TunnelFillStats fill_tunnels(SdfGrid& grid, const TunnelFillOptions& options = {
 /// cavities). marching_cubes with McAmbiguity::JoinInside meshes its boundary, whose Euler
 /// characteristic is twice this. Throws if `grid` is not dense.
 int solid_euler_characteristic(const SdfGrid& grid);
-
-struct BridgeCutStats {
-    bool skipped = false;          ///< not a dense grid, or larger than max_samples
-    int candidates = 0;            ///< components of the inside samples the closing of the outside adds
-    int cut = 0;                   ///< of which cut (made outside)
-    std::int64_t cut_samples = 0;  ///< lattice samples made outside
-};
-
-/// The dual of fill_tunnels: the same closing and the same Euler count with the outside in the
-/// place of the inside. A bumpy field can also join two parts of the surface by a bridge of solid a
-/// cell or two thick (at sharp edges and the rims of holes: each is a small handle). The inside
-/// samples that the closing of the outside by one cell adds are the solid at most two cells across;
-/// a connected piece of them whose joining the outside raises the outside's Euler characteristic
-/// (a plate scores -1: cutting it would make a hole; a bridge +1) is made outside (|F| kept),
-/// unless the inside samples around it are no longer connected without it (a thin neck that holds
-/// a part of the solid, such as a leg, scores +1 as well and is kept). Runs only with
-/// options.enabled and options.cut_bridges (off by default, see above).
-BridgeCutStats cut_bridges(SdfGrid& grid, const TunnelFillOptions& options = {});
 
 }  // namespace pcp

@@ -41,13 +41,6 @@ struct LrSchedule {
     std::int64_t warmup_steps = 0;   ///< linear warm-up from lr/warmup_steps to lr
     std::int64_t total_steps = 0;    ///< Cosine: decays from lr to final_lr over these steps
     double final_lr = 0.0;           ///< Cosine: rate at total_steps and after
-    /// Cosine: the decay starts here (the peak rate until then); -1: at the end of the warm-up
-    std::int64_t decay_start = -1;
-    /// Cosine: from step compress_from on, the rest of the decay (compress_from .. total_steps)
-    /// runs in compress_from .. compress_to instead, at the same rates in the same order (a time
-    /// warp; the stop rule's end). -1: none; ignored unless compress_from < compress_to, total_steps.
-    std::int64_t compress_from = -1;
-    std::int64_t compress_to = -1;
 
     double at(std::int64_t step) const;
 };

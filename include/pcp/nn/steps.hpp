@@ -131,15 +131,6 @@ struct Stage2Workspace {
     Mat<S> q_local;         ///< 3 x N: q_l'
     Vec<S> dL_ds;           ///< N: lambda
     Mat<S> dL_dg;           ///< 3 x N: v (only with train_decoder; 3 x 0 otherwise)
-    /// Sign guide (not in the paper; labels from pcp/cloud/visibility.hpp): the last `guided` columns of q_g
-    /// are queries whose side of the surface is known, guide_labels(j) = +1 (outside) or -1
-    /// (inside) for the j-th of them. Their loss is guide_weight * mean_j relu(-label_j s_j),
-    /// added to the pulling loss of the other columns (whose mean it stays); their targets are
-    /// unused. dL/ds = -guide_weight * label_j / guided where the sign is wrong, else 0; g does
-    /// not enter. 0 = no guided columns (the method).
-    Eigen::Index guided = 0;
-    Vec<S> guide_labels;    ///< max_queries entries; the first `guided` are used
-    S guide_weight = S(1);
 };
 
 // ------------------------------------------------------------------------------------------------
@@ -238,8 +229,7 @@ public:
     /// small products split over threads run at about half the SGEMM rate; parts keep each thread
     /// on its own products (docs/BENCHMARKS.md, "The stage-2 step in batch parts").
     /// 0: one part per thread (Eigen::nbThreads(), as the products), at most one per kMinPartQueries queries; 1: the whole
-    /// batch in `workspace` (its products split over the threads). Ablations and guided
-    /// columns always take one part. The rounding therefore depends on the thread count.
+    /// batch in `workspace` (its products split over the threads). Ablations always take one part. The rounding therefore depends on the thread count.
     int batch_parts = 0;
     static constexpr int kMinPartQueries = 128;
     /// The parts a step on n queries takes (see batch_parts).

@@ -6,7 +6,6 @@
 
 #include "pcp/cloud/prepared_cloud.hpp"
 #include "pcp/cloud/sampling.hpp"
-#include "pcp/cloud/visibility.hpp"
 #include "pcp/core/types.hpp"
 #include "pcp/train/prior.hpp"
 #include "pcp/train/schedule.hpp"
@@ -50,40 +49,6 @@ enum class QueryAblation { None, NoShift, Direct, FreeCode, PointNetCode, NoPrio
 QueryAblation parse_query_ablation(const std::string& name);
 std::string to_string(QueryAblation ablation);
 
-/// The sign guide (not in the paper; pcp/cloud/visibility.hpp): during the first until x steps,
-/// each step adds round(fraction x queries_per_step) queries drawn in the cells that visibility
-/// labels inside or outside, with the loss weight x mean relu(-label x F_g)
-/// (nn::Stage2Workspace::guided). The pulling loss cannot tell a field from its negative; this tells
-/// the fit which side is which wherever the cloud alone can tell. Nothing is guided when no cell is
-/// labelled. Measured and left off (docs/BENCHMARKS.md, "Visibility labels"): over three seeds it
-/// did not make the fit's outcome more stable, and it cost abc_00016513 about 15 % of L2-CD.
-struct SignGuideOptions {
-    bool enabled = false;        ///< off by default (measured, not adopted)
-    double fraction = 0.1;       ///< guided queries per step, x queries_per_step (0, 1]
-    double weight = 1.0;         ///< of the hinge against the pulling loss (> 0)
-    double until = 0.2;          ///< guide the first until x steps only (0, 1]
-    VisibilityOptions visibility;  ///< the labels, when the fitter is not given them
-};
-
-/// Stop when converged instead of after a fixed count (not in the paper). Every `window` steps
-/// the fit compares the window's mean loss with the previous window's; once the relative decrease
-/// is below `tolerance` (and at least min_steps are done), a cooldown of cooldown_fraction x the
-/// steps done (at least min_cooldown) follows and the fit stops there. QueryFitOptions::steps
-/// stays the cap. With a cosine schedule (the presets') the rates are the schedule's own until the
-/// plateau and the rest of its decay runs in the cooldown (nn::LrSchedule::compress_from); without
-/// a plateau the fit is exactly the schedule's. With a constant rate, the peak rate until the
-/// plateau, then cosine to 0.02 x over the cooldown (placed to end at the cap when no plateau
-/// comes). Measured against the peak-rate-until-the-plateau form in docs/BENCHMARKS.md ("The stop
-/// rule on the preset's own schedule").
-struct StopRule {
-    bool enabled = false;
-    std::int64_t window = 200;
-    double tolerance = 0.01;
-    std::int64_t min_steps = 400;
-    double cooldown_fraction = 0.25;
-    std::int64_t min_cooldown = 200;
-};
-
 struct QueryFitOptions {
     SamplingOptions sampling;        ///< global queries around the cloud (paper: 40 per point)
     int width = 512;                 ///< Q's width (paper: 512)
@@ -98,8 +63,6 @@ struct QueryFitOptions {
     TrainingSchedule schedule = TrainingSchedule::every(100, 2000);
     bool zero_shift_init = true;     ///< start with dq = 0 (q_l' = q_g); modes with a shift only
     QueryAblation ablation = QueryAblation::None;  ///< the paper's ablations (see above)
-    SignGuideOptions sign_guide;     ///< not in the paper (see above)
-    StopRule stop;                   ///< not in the paper (see above); off: exactly `steps` steps
 };
 
 /// The resumable stage-2 fitter (F frozen, or trained with Q in the no-prior / tune-prior
@@ -108,16 +71,13 @@ struct QueryFitOptions {
 class QueryNetFitter {
 public:
     /// @param[in] cloud  the input, prepared (checked, in the unit box, indexed); must outlive the fitter.
-    /// @param[in] labels  visibility labels of the cloud for the sign guide (copied), or null: then
-    ///                    computed here with options.sign_guide.visibility when the guide is on.
-    QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& prior, const QueryFitOptions& options,
-                   const VisibilityLabels* labels = nullptr);
+    QueryNetFitter(const PreparedCloud& cloud, const LocalPrior& prior, const QueryFitOptions& options);
     /// Several clouds, one query network (paper, "Optimization": multiple point clouds with one-hot
     /// vectors as the condition of each q_g): Q(q_g, e_k) for the queries of cloud k, each cloud in
     /// its own unit box. Each step draws its queries from the clouds in equal shares (a cloud per
     /// query, uniformly; then one of its pool's queries); each cloud's pool holds at most its share
     /// of the draws. One cloud is exactly the single-cloud fitter (no code branch). With several,
-    /// only the method (ablation none) and no sign guide: refused otherwise.
+    /// only the method (ablation none): refused otherwise.
     /// @param[in] clouds  prepared clouds (at least one, none null); they must outlive the fitter.
     QueryNetFitter(const std::vector<const PreparedCloud*>& clouds, const LocalPrior& prior,
                    const QueryFitOptions& options);
@@ -141,15 +101,8 @@ public:
     const PreparedCloud& cloud() const;  ///< the first cloud
     const PreparedCloud& cloud(int index) const;
     int num_clouds() const;
-    /// Guided queries per step (0: the guide is off or labelled nothing).
-    int guided_per_step() const;
     /// Queries in the pool the steps draw from: at most steps x queries_per_step (SamplingOptions::max_queries).
     std::int64_t pool_size() const;
-    /// The steps the fit will end at: options.steps, or with the stop rule the end of its cooldown
-    /// once a plateau was found (at most options.steps).
-    std::int64_t planned_steps() const;
-    /// The step at which the stop rule found the plateau (-1: not found, or the rule is off).
-    std::int64_t plateau_step() const;
 
 private:
     struct Impl;
