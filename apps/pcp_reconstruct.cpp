@@ -299,24 +299,24 @@ int main(int argc, char** argv) {
             ("thin-offset", "Keep thin parts whole: near the data, extract at iso + this (unit-box units, the cloud's longest edge 1), then move the mesh back by it (0: off)",
              cxxopts::value<double>()->default_value(fmt(d.thin_offset)))
             ("sheet-gap", "Least gap between the two sides of a thin part, which the fit brings onto the same data (unit-box "
-                          "units; 0: off; include/pcp/mesh/sheet_gap.hpp)",
+                          "units; 0: off; include/pcp/mesh/surface/sheet_gap.hpp)",
              cxxopts::value<double>()->default_value(fmt(d.sheet_gap.enabled ? d.sheet_gap.min_gap : 0.0)))
             ("thin-probe", "Where the field has no inside this many grid cells under a point of the data, raise the thin level "
                            "there until it has (0: off)",
              cxxopts::value<double>()->default_value(fmt(d.thin_probe)))
             ("margin", "Margin around the cloud's unit box", cxxopts::value<double>()->default_value(fmt(d.margin)))
             ("sign-repair", "on | off: flip regions of the fitted field whose sign the data does not support, on a coarse "
-                            "grid (not in the paper; include/pcp/mesh/sign_repair.hpp)",
+                            "grid (not in the paper; include/pcp/mesh/sign/sign_repair.hpp)",
              cxxopts::value<std::string>()->default_value(d.sign_repair.enabled ? "on" : "off"))
             ("sign-repair-resolution", "Cells per axis of the sign repair's coarse grid",
              cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.resolution)))
             ("label-votes", "With N > 0, the sign repair also flips a region away from the data when at least N of its "
                             "samples, and more than agree, are on the other side by visibility through the cloud (0 = off; "
-                            "not in the paper; include/pcp/mesh/sign_repair.hpp)",
+                            "not in the paper; include/pcp/mesh/sign/sign_repair.hpp)",
              cxxopts::value<int>()->default_value(std::to_string(d.sign_repair.min_label_votes)))
             ("winding-sign", "on | off: away from the data, give the field the sign of the generalised winding number of "
                              "the oriented input points (hollow walls, inner sheets, plugged holes, bubbles; not in the paper; "
-                             "include/pcp/mesh/winding_sign.hpp)",
+                             "include/pcp/mesh/sign/winding_sign.hpp)",
              cxxopts::value<std::string>()->default_value(d.winding_sign.enabled ? "on" : "off"))
             ("winding-normals", "labels | field: orient the winding number's points by which side the visibility labels "
                                 "see outside, by the field where the "
@@ -325,39 +325,39 @@ int main(int argc, char** argv) {
             ("winding-near", "Distance from the data, in sampling scales, within which the field keeps its own sign",
              cxxopts::value<double>()->default_value(fmt(d.winding_sign.near_k)))
             ("cavity-fill", "on | off: fill the pockets of the fitted field's outside that the outside cannot reach (the hollow "
-                            "shells of noisy scans; evaluates the whole grid; not in the paper; include/pcp/mesh/cavity_fill.hpp)",
+                            "shells of noisy scans; evaluates the whole grid; not in the paper; include/pcp/mesh/repair/cavity_fill.hpp)",
              cxxopts::value<std::string>()->default_value(d.cavity_fill.enabled ? "on" : "off"))
             ("fine-repair", "on | off: flip thin regions of the fine grid whose boundary is mostly a zero crossing away from "
-                            "the data (membranes across holes; not in the paper; include/pcp/mesh/fine_repair.hpp)",
+                            "the data (membranes across holes; not in the paper; include/pcp/mesh/repair/fine_repair.hpp)",
              cxxopts::value<std::string>()->default_value(d.fine_repair.enabled ? "on" : "off"))
             ("tunnel-fill", "on | off: plug the passages through the solid that are two cells across or less (the small "
-                            "handles of a bumpy field; evaluates the whole grid; not in the paper; include/pcp/mesh/tunnel_fill.hpp)",
+                            "handles of a bumpy field; evaluates the whole grid; not in the paper; include/pcp/mesh/repair/tunnel_fill.hpp)",
              cxxopts::value<std::string>()->default_value(d.tunnel_fill.enabled ? "on" : "off"))
             ("through-carve", "on | off: make outside the inside samples of the fine grid that lie on lines crossing no wall of "
                               "the data (openings a few sample spacings wide that the field spans; not in the paper; "
-                              "include/pcp/mesh/through_carve.hpp)",
+                              "include/pcp/mesh/repair/through_carve.hpp)",
              cxxopts::value<std::string>()->default_value(d.through_carve.enabled ? "on" : "off"))
             ("mc-ambiguity", "join | decider | separate: how marching cubes cuts a grid face whose diagonal corners share "
                              "a sign: the inside joined (the default: the mesh has the topology the grid repairs count), "
-                             "by the bilinear saddle (asymptotic decider), or the inside separated (include/pcp/mesh/marching_cubes.hpp)",
+                             "by the bilinear saddle (asymptotic decider), or the inside separated (include/pcp/mesh/grid/marching_cubes.hpp)",
              cxxopts::value<std::string>()->default_value("join"))
             ("shell-centre", "on | off: on a noisy (denoised) cloud, put the surface in the middle of the noise band's "
-                             "shell instead of on its outer wall (not in the paper; include/pcp/mesh/shell_centre.hpp)",
+                             "shell instead of on its outer wall (not in the paper; include/pcp/mesh/surface/shell_centre.hpp)",
              cxxopts::value<std::string>()->default_value(d.shell_centre.enabled ? "on" : "off"))
             ("surface-fit", "on | off: remove mesh components with no input points near them and move the surface onto "
-                            "the data (not in the paper; include/pcp/mesh/surface_fit.hpp)",
+                            "the data (not in the paper; include/pcp/mesh/surface/surface_fit.hpp)",
              cxxopts::value<std::string>()->default_value(d.surface_fit.enabled ? "on" : "off"))
             ("surface-fit-iterations", "Rounds of the surface fit's move onto the data (0: the component filter only)",
              cxxopts::value<int>()->default_value(std::to_string(d.surface_fit.iterations)))
             ("recentre", "auto | on | off: before the surface fit, move the mesh onto the middle of the input points' "
                          "noise, averaged over a few sampling scales (auto: when the cloud was denoised, that is noisy; "
-                         "not in the paper; include/pcp/mesh/surface_fit.hpp)",
+                         "not in the paper; include/pcp/mesh/surface/surface_fit.hpp)",
              cxxopts::value<std::string>()->default_value("auto"))
             ("smooth", "auto | on | off: bilateral smoothing of the final mesh (auto: when the cloud was denoised, that is "
-                       "noisy; not in the paper; include/pcp/mesh/smooth.hpp)",
+                       "noisy; not in the paper; include/pcp/mesh/surface/smooth.hpp)",
              cxxopts::value<std::string>()->default_value("auto"))
             ("fair", "on | off: place the surface where no input point lies under it as the smoothest surface that "
-                     "joins the supported rest (not in the paper; off in the scene mode; include/pcp/mesh/surface_fit.hpp)",
+                     "joins the supported rest (not in the paper; off in the scene mode; include/pcp/mesh/surface/surface_fit.hpp)",
              cxxopts::value<std::string>()->default_value(d.fairing.enabled ? "on" : "off"))
             ("keep-checkpoint", "Keep OUT.ckpt (the finished query network) and OUT.ckpt.prior, so that a run with --resume "
                                 "re-meshes without training again");

@@ -1,11 +1,11 @@
-// Benchmark of the SDF grid machinery and marching cubes (include/pcp/mesh/sdf_grid.hpp,
-// include/pcp/mesh/marching_cubes.hpp): wall time of evaluation and extraction, SDF evaluations
+// Benchmark of the SDF grid machinery and marching cubes (include/pcp/mesh/grid/sdf_grid.hpp,
+// include/pcp/mesh/grid/marching_cubes.hpp): wall time of evaluation and extraction, SDF evaluations
 // against (R+1)^3, stored blocks and peak memory, for resolutions 128, 256, 512 and each band
 // mode, on cost-free analytic SDFs (a sphere and a torus) so that the grid machinery itself is
 // measured. Each configuration runs in a forked child so that its peak RSS is its own.
 // Prints a Markdown table for docs/BENCHMARKS.md. Usage: bench_mc [max_resolution (default 512)]
-#include "pcp/mesh/marching_cubes.hpp"
-#include "pcp/mesh/sdf_grid.hpp"
+#include "pcp/mesh/grid/marching_cubes.hpp"
+#include "pcp/mesh/grid/sdf_grid.hpp"
 
 #include <omp.h>
 #include <sys/resource.h>

@@ -1,9 +1,9 @@
 // bench_smooth MESH OUT bilateral NORMAL_ITER VERTEX_ITER SIGMA_R SPATIAL
-// Applies the bilateral smoothing of pcp/mesh/smooth.hpp to a mesh file (for measuring settings on
+// Applies the bilateral smoothing of pcp/mesh/surface/smooth.hpp to a mesh file (for measuring settings on
 // stored benchmark meshes without fitting the networks again).
 #include "pcp/core/error.hpp"
 #include "pcp/io/io.hpp"
-#include "pcp/mesh/smooth.hpp"
+#include "pcp/mesh/surface/smooth.hpp"
 
 #include <cstdlib>
 #include <iostream>

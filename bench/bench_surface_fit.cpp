@@ -1,4 +1,4 @@
-// Applies the surface fit (pcp/mesh/surface_fit.hpp) to a mesh already made from a cloud, so that
+// Applies the surface fit (pcp/mesh/surface/surface_fit.hpp) to a mesh already made from a cloud, so that
 // its settings can be measured on stored benchmark meshes without refitting the networks.
 // Usage: bench_surface_fit MESH CLOUD OUT [ITERATIONS NEIGHBORS(auto|K) BANDWIDTH RELAX DENOISE(auto|0) MIN_SUPPORTED SHRINK(1|0)]
 // (NEIGHBORS auto: pcp::reconstruct's rule, NoisyCloudOptions::fit_neighbors for a cloud it denoises.)
@@ -6,7 +6,7 @@
 #include "pcp/cloud/prepared_cloud.hpp"
 #include "pcp/core/error.hpp"
 #include "pcp/io/io.hpp"
-#include "pcp/mesh/surface_fit.hpp"
+#include "pcp/mesh/surface/surface_fit.hpp"
 #include "pcp/reconstruct.hpp"
 
 #include <chrono>

@@ -333,7 +333,7 @@ markdown_body() {
     echo "## Not in the paper: our sign repair"
     echo
     echo "libpcp flips the regions of the fitted field whose sign the data does not support before meshing"
-    echo "(\`include/pcp/mesh/sign_repair.hpp\`; on in every row above). The paper has no such step, so its columns"
+    echo "(\`include/pcp/mesh/sign/sign_repair.hpp\`; on in every row above). The paper has no such step, so its columns"
     echo "repeat its \"Ours\"."
     echo
     table_header

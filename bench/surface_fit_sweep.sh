@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# surface_fit_sweep.sh: measures settings of the surface fit (include/pcp/mesh/surface_fit.hpp) on
+# surface_fit_sweep.sh: measures settings of the surface fit (include/pcp/mesh/surface/surface_fit.hpp) on
 # the PCP meshes a benchmark run stored, without fitting the networks again. For every case of
 # OUT/results.tsv that has OUT/<case>/pcp.ply made with --surface-fit off (or by a build before
 # the surface fit existed), bench_surface_fit applies each setting to that mesh (with the input

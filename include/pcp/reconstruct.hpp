@@ -8,19 +8,21 @@
 #include "pcp/cloud/denoise.hpp"
 #include "pcp/core/progress.hpp"
 #include "pcp/core/types.hpp"
-#include "pcp/mesh/cavity_fill.hpp"
-#include "pcp/mesh/field_normals.hpp"
-#include "pcp/mesh/fine_repair.hpp"
-#include "pcp/mesh/marching_cubes.hpp"
-#include "pcp/mesh/sheet_gap.hpp"
-#include "pcp/mesh/shell_centre.hpp"
-#include "pcp/mesh/through_carve.hpp"
-#include "pcp/mesh/tunnel_fill.hpp"
-#include "pcp/mesh/sdf_grid.hpp"
-#include "pcp/mesh/sign_repair.hpp"
-#include "pcp/mesh/smooth.hpp"
-#include "pcp/mesh/surface_fit.hpp"
-#include "pcp/mesh/winding_sign.hpp"
+#include "pcp/mesh/repair/cavity_fill.hpp"
+#include "pcp/mesh/sign/field_normals.hpp"
+#include "pcp/mesh/repair/fine_repair.hpp"
+#include "pcp/mesh/grid/marching_cubes.hpp"
+#include "pcp/mesh/surface/sheet_gap.hpp"
+#include "pcp/mesh/surface/shell_centre.hpp"
+#include "pcp/mesh/repair/through_carve.hpp"
+#include "pcp/mesh/repair/tunnel_fill.hpp"
+#include "pcp/mesh/grid/sdf_grid.hpp"
+#include "pcp/mesh/sign/sign_repair.hpp"
+#include "pcp/mesh/surface/smooth.hpp"
+#include "pcp/mesh/surface/fairing.hpp"
+#include "pcp/mesh/surface/recentre.hpp"
+#include "pcp/mesh/surface/surface_fit.hpp"
+#include "pcp/mesh/sign/winding_sign.hpp"
 #include "pcp/train/prior.hpp"
 #include "pcp/train/query_fit.hpp"
 
@@ -149,7 +151,7 @@ struct ReconstructOptions {
     NoisyCloudOptions noisy;         ///< what changes for a cloud the pipeline denoised
     /// The oriented normals of the input points, when asked for (not in the paper): read off the
     /// final mesh at the nearest point (Mesh), the PCA normals oriented by it (PcaByMesh), or the
-    /// PCA normals oriented by the fitted field's own votes (Field, pcp/mesh/field_normals.hpp).
+    /// PCA normals oriented by the fitted field's own votes (Field, pcp/mesh/sign/field_normals.hpp).
     NormalSource normal_source = NormalSource::Mesh;
     FieldNormalsOptions normals;     ///< PCA neighbours, and the votes of NormalSource::Field
     /// With fit.schedule.checkpoint_path set: write the finished query network there and keep the
@@ -233,7 +235,7 @@ struct ReconstructReport {
 /// options.prior_source says; the no-prior ablation only takes the network sizes from
 /// options.self_prior. With `normals` non-null it also receives the
 /// oriented unit normal of every input point (N x 3, input frame, same order, pointing outward),
-/// read off the fitted field (pcp/mesh/field_normals.hpp; of the denoised point when the cloud was
+/// read off the fitted field (pcp/mesh/sign/field_normals.hpp; of the denoised point when the cloud was
 /// denoised); empty when the run was cancelled.
 Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior, const ReconstructOptions& options,
                  ReconstructReport* report = nullptr, Points* normals = nullptr);

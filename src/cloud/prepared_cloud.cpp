@@ -1,7 +1,7 @@
 // PreparedCloud (see pcp/cloud/prepared_cloud.hpp).
 #include "pcp/cloud/prepared_cloud.hpp"
 
-#include "pcp/nn/checkpoint.hpp"
+#include "pcp/core/hash.hpp"
 
 #include <utility>
 
@@ -17,10 +17,10 @@ PreparedCloud::PreparedCloud(const Eigen::Ref<const Points>& points, std::string
     : name_(std::move(name)), norm_(checked_unit_box(points, name_, min_points)), tree_(norm_.to_unit(points)) {
     const auto bytes = static_cast<std::size_t>(points.size()) * sizeof(double);
     if (points.outerStride() == 3) {
-        input_hash_ = nn::fnv1a64(points.data(), bytes);
+        input_hash_ = fnv1a64(points.data(), bytes);
     } else {  // a strided view: hash the coordinates in row order
         const Points dense = points;
-        input_hash_ = nn::fnv1a64(dense.data(), bytes);
+        input_hash_ = fnv1a64(dense.data(), bytes);
     }
 }
 

@@ -8,7 +8,7 @@
 #include "eval/eval_frame.hpp"
 #include "pcp/cloud/kdtree.hpp"
 #include "pcp/core/error.hpp"
-#include "pcp/mesh/mesh_check.hpp"
+#include "pcp/mesh/grid/mesh_check.hpp"
 
 #include <Eigen/Geometry>
 

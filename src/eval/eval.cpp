@@ -5,7 +5,7 @@
 #include "pcp/eval/eval.hpp"
 
 #include "eval/eval_frame.hpp"
-#include "eval/triangle_distance.hpp"
+#include "core/triangle_distance.hpp"
 #include "pcp/core/error.hpp"
 #include "pcp/cloud/kdtree.hpp"
 #include "pcp/cloud/normalize.hpp"

@@ -176,15 +176,6 @@ PointNetShape pointnet_shape_of(const std::vector<std::int32_t>& s, const std::s
 
 }  // namespace
 
-std::uint64_t fnv1a64(const void* data, std::size_t size, std::uint64_t h) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (std::size_t i = 0; i < size; ++i) {
-        h ^= p[i];
-        h *= 0x100000001b3ull;
-    }
-    return h;
-}
-
 template <class S>
 const NetRecord<S>& NetFile<S>::get(const std::string& name) const {
     for (const auto& n : nets)

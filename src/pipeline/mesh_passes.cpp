@@ -4,15 +4,18 @@
 #include "mesh_stage.hpp"
 
 #include "pcp/core/error.hpp"
-#include "pcp/mesh/cavity_fill.hpp"
-#include "pcp/mesh/fine_repair.hpp"
-#include "pcp/mesh/sheet_gap.hpp"
-#include "pcp/mesh/shell_centre.hpp"
-#include "pcp/mesh/smooth.hpp"
-#include "pcp/mesh/surface_fit.hpp"
-#include "pcp/mesh/through_carve.hpp"
-#include "pcp/mesh/tunnel_fill.hpp"
-#include "mesh/grid_samples.hpp"
+#include "pcp/mesh/surface/mesh_ops.hpp"
+#include "pcp/mesh/repair/cavity_fill.hpp"
+#include "pcp/mesh/repair/fine_repair.hpp"
+#include "pcp/mesh/surface/sheet_gap.hpp"
+#include "pcp/mesh/surface/shell_centre.hpp"
+#include "pcp/mesh/surface/smooth.hpp"
+#include "pcp/mesh/surface/fairing.hpp"
+#include "pcp/mesh/surface/recentre.hpp"
+#include "pcp/mesh/surface/surface_fit.hpp"
+#include "pcp/mesh/repair/through_carve.hpp"
+#include "pcp/mesh/repair/tunnel_fill.hpp"
+#include "mesh/grid/grid_samples.hpp"
 
 #include <chrono>
 #include <limits>
@@ -31,7 +34,7 @@ std::string words(const T&... parts) {
 
 // ---- grid passes: the fine grid's samples --------------------------------------------------------
 
-/// Enclosed pockets of "outside": the hollow shells of noisy scans (pcp/mesh/cavity_fill.hpp). A
+/// Enclosed pockets of "outside": the hollow shells of noisy scans (pcp/mesh/repair/cavity_fill.hpp). A
 /// noisy cloud's grid is kept as it was first, for the shell centring.
 std::string cavity_fill(MeshContext& c) {
     const ReconstructOptions& o = c.options;
@@ -44,7 +47,7 @@ std::string cavity_fill(MeshContext& c) {
                  " open only on the data)");
 }
 
-/// Membranes and bubbles too thin for the sign repair's coarse grid (pcp/mesh/fine_repair.hpp).
+/// Membranes and bubbles too thin for the sign repair's coarse grid (pcp/mesh/repair/fine_repair.hpp).
 std::string fine_repair(MeshContext& c) {
     if (!c.options.fine_repair.enabled) return "";
     const FineRepairStats& st = c.report.fine_repair = repair_fine_grid(c.grid, c.cloud.tree(), c.options.fine_repair);
@@ -53,7 +56,7 @@ std::string fine_repair(MeshContext& c) {
 }
 
 /// Passages through the solid too narrow for the data to support: the small handles of a bumpy
-/// field (pcp/mesh/tunnel_fill.hpp); a pocket a plug closed off is then a cavity, filled again.
+/// field (pcp/mesh/repair/tunnel_fill.hpp); a pocket a plug closed off is then a cavity, filled again.
 std::string tunnel_fill(MeshContext& c) {
     const ReconstructOptions& o = c.options;
     if (!o.tunnel_fill.enabled) return "";
@@ -71,7 +74,7 @@ std::string tunnel_fill(MeshContext& c) {
 }
 
 /// Openings the field spans though lines pass through them that cross no wall of the data
-/// (pcp/mesh/through_carve.hpp).
+/// (pcp/mesh/repair/through_carve.hpp).
 std::string through_carve(MeshContext& c) {
     if (!c.options.through_carve.enabled) return "";
     const ThroughCarveStats& st = c.report.through_carve = carve_through_lines(c.grid, c.cloud.tree(), c.options.through_carve);
@@ -94,7 +97,7 @@ std::string thin_probe(MeshContext& c) {
 // ---- surface passes: the mesh --------------------------------------------------------------------
 
 /// A noisy cloud's surface in the middle of its noise band's shell, whose inner wall the cavity
-/// fill removed (pcp/mesh/shell_centre.hpp).
+/// fill removed (pcp/mesh/surface/shell_centre.hpp).
 std::string shell_centre(MeshContext& c) {
     if (!c.before_fill || c.report.cavity_fill.cavity_samples == 0) return "";
     ShellCentreStats& st = c.report.shell_centre;
@@ -114,7 +117,7 @@ std::string recentre(MeshContext& c) {
     return words("noise spread ", st.spread, ", mean move ", st.mean_move);
 }
 
-/// Components away from the data removed, vertices moved onto the data (pcp/mesh/surface_fit.hpp).
+/// Components away from the data removed, vertices moved onto the data (pcp/mesh/surface/surface_fit.hpp).
 std::string surface_fit(MeshContext& c) {
     SurfaceFitOptions fit = c.options.surface_fit;
     fit.noise_spread = c.noise_spread;
@@ -127,7 +130,7 @@ std::string surface_fit(MeshContext& c) {
                  st.removed_blisters, " on the largest), moved ", st.supported_vertices, " vertices");
 }
 
-/// The noise's bumps that the fit onto noisy data keeps (pcp/mesh/smooth.hpp).
+/// The noise's bumps that the fit onto noisy data keeps (pcp/mesh/surface/smooth.hpp).
 std::string smoothing(MeshContext& c) {
     c.report.smoothed = c.options.smoothing.enabled;
     if (!c.report.smoothed) return "";
@@ -145,7 +148,7 @@ std::string fairing(MeshContext& c) {
 }
 
 /// The two sides of a thin part, which the move back and the fit bring onto the same data, apart
-/// again where the solid that marching cubes extracted lies between them (pcp/mesh/sheet_gap.hpp).
+/// again where the solid that marching cubes extracted lies between them (pcp/mesh/surface/sheet_gap.hpp).
 std::string sheet_gap(MeshContext& c) {
     const SheetGapOptions& o = c.options.sheet_gap;
     if (!o.enabled || (o.where_raised_only && c.report.thin_raised == 0)) return "";

@@ -3,11 +3,11 @@
 #include "mesh_stage.hpp"
 
 #include "pcp/core/error.hpp"
-#include "pcp/mesh/marching_cubes.hpp"
-#include "pcp/mesh/mesh_check.hpp"
-#include "pcp/mesh/surface_fit.hpp"
+#include "pcp/mesh/surface/mesh_ops.hpp"
+#include "pcp/mesh/grid/marching_cubes.hpp"
+#include "pcp/mesh/grid/mesh_check.hpp"
 #include "pcp/nn/gemm.hpp"
-#include "mesh/sample_memo.hpp"
+#include "mesh/grid/sample_memo.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -126,7 +126,7 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     const float thin = static_cast<float>(options.thin_offset);
     const float near_r = thin > 0 ? static_cast<float>(options.surface_fit.support_k * sampling_scale(cloud.tree())) : 0.0f;
     // The level near each input point: thin_offset, raised further by the thin probe where the
-    // grid's solid has no inside under a point (include/pcp/mesh/thin_level.hpp).
+    // grid's solid has no inside under a point (include/pcp/mesh/repair/thin_level.hpp).
     ThinLevel thin_level(cloud.tree(), thin, near_r);
     const float sign = r.sign_flipped ? -1.0f : 1.0f;
     // The grid box is the cloud's box plus a margin, so its faces are outside the shape: the field
@@ -150,7 +150,7 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     };
     const SdfBatchFn fitted = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) { evaluate(q, v, true); };
     const SdfBatchFn level = [&](const Eigen::Ref<const PointsF>& q, Eigen::Ref<Eigen::VectorXf> v) { evaluate(q, v, false); };
-    // The oriented normals of the input points (include/pcp/mesh/field_normals.hpp): the unit
+    // The oriented normals of the input points (include/pcp/mesh/sign/field_normals.hpp): the unit
     // box's uniform scale keeps directions, so they are the input frame's too.
     if (normals && options.normal_source == NormalSource::Field) {
         const FieldNormals oriented = orient_normals_by_field(fitted, cloud.tree(), options.normals);
@@ -158,13 +158,13 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
         *normals = per_input_point(oriented.normals, cloud, all_points, subsampled).cast<double>();
     }
     // Away from the data the sign is the winding number's of the oriented input points
-    // (include/pcp/mesh/winding_sign.hpp), oriented by which side the visibility labels see
+    // (include/pcp/mesh/sign/winding_sign.hpp), oriented by which side the visibility labels see
     // outside; where the labels orient too few (thin parts seen from both sides), by the field.
     WindingSign winding;
     if (options.winding_sign.orient_by_labels && !labels.label.empty()) winding = WindingSign(labels, cloud.tree(), options.winding_sign);
     if (!winding.stats().by_labels || winding.stats().skipped) winding = WindingSign(level, cloud.tree(), options.winding_sign);
     r.winding_sign = winding.stats();
-    // Regions whose sign the data does not support are flipped (include/pcp/mesh/sign_repair.hpp)
+    // Regions whose sign the data does not support are flipped (include/pcp/mesh/sign/sign_repair.hpp)
     // on a coarse grid never finer than the fine one. The repair sees the fitted field, and the
     // winding number corrects its result but for the regions the repair opened: the other way
     // round, the winding number's flips near a noisy wall joined the field's plug of a barely
@@ -239,7 +239,7 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     Mesh mesh = cloud.normalization().from_unit(c.mesh);
     r.closed = is_closed_and_oriented(mesh);
     if (normals && options.normal_source != NormalSource::Field) {
-        // Read off the final mesh at the point nearest to each input point (include/pcp/mesh/field_normals.hpp).
+        // Read off the final mesh at the point nearest to each input point (include/pcp/mesh/sign/field_normals.hpp).
         const auto t_normals = std::chrono::steady_clock::now();
         *normals = mesh_normals_at(mesh, all_points);
         if (options.normal_source == NormalSource::PcaByMesh) {

@@ -16,7 +16,7 @@
 
 #include "pcp/reconstruct.hpp"
 #include "pcp/cloud/prepared_cloud.hpp"
-#include "pcp/mesh/thin_level.hpp"
+#include "pcp/mesh/repair/thin_level.hpp"
 
 #include <optional>
 #include <string>

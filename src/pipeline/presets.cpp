@@ -45,7 +45,7 @@ ReconstructOptions ReconstructOptions::preset(const std::string& name) {
         // abc_00016513's seed 3 0.028 -> 0.057 (a membrane across its bore's end) (docs/BENCHMARKS.md,
         // "The own-side denoiser as the default").
         o.denoise.mode_width = 2.0;
-        // Two passes of it (was 3), with the recentring (surface_fit.hpp): three seeds on the 11 noisy
+        // Two passes of it (was 3), with the recentring (recentre.hpp): three seeds on the 11 noisy
         // cases, ABC mean L2-CD x 100 / NC 0.0232 / 0.867 against 0.0251 / 0.865; three scans outside
         // the stability bound (largest / smallest seed at most 1.3) -> two (abc_00010071 2.00 -> 2.02,
         // abc_00016513 1.86 -> 1.11, abc_00994122 1.49 -> 1.10, abc_00011084 1.13 -> 1.35), the noisy
@@ -84,7 +84,7 @@ ReconstructOptions ReconstructOptions::preset(const std::string& name) {
         // 0.75, noisy bunny 0.028 / 0.75 -> 0.013 / 0.90 (docs/BENCHMARKS.md).
         o.denoise.automatic = true;
         o.resolution = 96;
-        // The winding-number sign on (include/pcp/mesh/winding_sign.hpp; it skips itself where the
+        // The winding-number sign on (include/pcp/mesh/sign/winding_sign.hpp; it skips itself where the
         // field orients fewer than half the points, which on the 13 shared cases with ground truth
         // is every run: their meshes are unchanged). On a clean chair of 3-4-spacing-thick boards
         // (20,000 points) the seat came out shredded by inner sheets on 3 of 3 seeds, L2-CD x 100

@@ -6,8 +6,8 @@
 
 #include "pcp/core/error.hpp"
 #include "pcp/core/rng.hpp"
-#include "pcp/mesh/marching_cubes.hpp"
-#include "pcp/mesh/sdf_grid.hpp"
+#include "pcp/mesh/grid/marching_cubes.hpp"
+#include "pcp/mesh/grid/sdf_grid.hpp"
 
 #include <Eigen/Geometry>
 

@@ -2,7 +2,8 @@
 #include "pcp/cloud/kdtree.hpp"
 #include "pcp/eval/diagnose.hpp"
 #include "pcp/eval/eval.hpp"
-#include "pcp/mesh/mesh_check.hpp"
+#include "pcp/mesh/surface/mesh_ops.hpp"
+#include "pcp/mesh/grid/mesh_check.hpp"
 #include "pcp/reconstruct.hpp"
 #include "pcp/cloud/shapes.hpp"
 #include "pcp/core/rng.hpp"
@@ -177,7 +178,7 @@ TEST_CASE("e2e: the README's command gives the built-in shape as one closed comp
 // under it, and the slab a fixed thin offset gives is thinner than the grid's cells, torn into holes
 // in stripes where the lattice's samples miss it; and the fit lays both sides of the slab on the
 // same data, crossed about half the time. From the same networks, with the thin level's probe
-// (ReconstructOptions::thin_probe) and the sheet gap (include/pcp/mesh/sheet_gap.hpp) and without:
+// (ReconstructOptions::thin_probe) and the sheet gap (include/pcp/mesh/surface/sheet_gap.hpp) and without:
 // the holes mostly closed (genus / 10 at most; a few small ones remain), one component covering the
 // sheet, each side on its own side of the sheet.
 TEST_CASE("e2e: a sheet sampled as one layer of points comes out as one closed slab with its sides apart", "[e2e]") {

@@ -3,9 +3,9 @@
 // mesh checks (edge manifoldness, orientation consistency, Euler characteristic, signed volume).
 #pragma once
 
-#include "pcp/mesh/mesh_check.hpp"
+#include "pcp/mesh/grid/mesh_check.hpp"
 
-#include "pcp/mesh/sdf_grid.hpp"
+#include "pcp/mesh/grid/sdf_grid.hpp"
 #include "pcp/core/types.hpp"
 
 #include <Eigen/Geometry>
@@ -68,7 +68,7 @@ inline pcp::SdfGrid dense_grid(const ScalarSdf& f, int resolution) {
     return pcp::evaluate_sdf_grid(batch(f), cube_grid(resolution), o);
 }
 
-// The topology counts are the library's own (pcp/mesh/mesh_check.hpp).
+// The topology counts are the library's own (pcp/mesh/grid/mesh_check.hpp).
 using pcp::MeshTopology;
 inline MeshTopology topology(const pcp::Mesh& mesh) { return pcp::mesh_topology(mesh); }
 

@@ -1,5 +1,5 @@
 // Inside / outside from the cloud alone, by visibility (not in the paper): the labels of the sign
-// repair's label vote (pcp/mesh/sign_repair.hpp), the cavity fill (cavity_fill.hpp) and the
+// repair's label vote (pcp/mesh/sign/sign_repair.hpp), the cavity fill (cavity_fill.hpp) and the
 // winding sign's orientation (winding_sign.hpp).
 //
 // The pulling loss (METHOD.md §3) is blind to the sign of the field: q - F g/|g| is the same for F

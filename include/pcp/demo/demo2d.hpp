@@ -73,7 +73,7 @@ struct Demo2dResult {
     double predicted_radius_p90 = 0;      ///< its 90th percentile
 };
 
-/// The plane's counterpart of the 3D pipeline's fine sign repair (include/pcp/mesh/fine_repair.hpp):
+/// The plane's counterpart of the 3D pipeline's fine sign repair (include/pcp/mesh/repair/fine_repair.hpp):
 /// a region of one sign of `field` (4-connected nodes; field(i, j) at x_i, y_j of `o`'s grid) that
 /// has no node within `near` of a data point and does not reach the domain's border is negated. The
 /// pulling loss cannot tell a field from its negation where no query constrains it: on some seeds

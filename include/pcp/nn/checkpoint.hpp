@@ -18,6 +18,7 @@
 //   checksum     u64      FNV-1a 64 of every byte before it
 #pragma once
 
+#include "pcp/core/hash.hpp"
 #include "pcp/nn/adam.hpp"
 #include "pcp/nn/networks.hpp"
 #include "pcp/nn/rng.hpp"
@@ -81,8 +82,6 @@ NetFile<S> load_net_file(const std::string& path);
 template <class S>
 NetFile<S> parse_net_file(const std::string& path, const std::string& bytes);
 
-/// FNV-1a 64-bit hash (the file checksum).
-std::uint64_t fnv1a64(const void* data, std::size_t size,
-                      std::uint64_t h = 0xcbf29ce484222325ull);
+using pcp::fnv1a64;  ///< the file checksum (pcp/core/hash.hpp)
 
 }  // namespace pcp::nn
