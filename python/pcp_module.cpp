@@ -10,6 +10,7 @@
 #include "pcp/io/io.hpp"
 #include "pcp/nn/gemm.hpp"
 #include "pcp/reconstruct.hpp"
+#include "pcp/settings.hpp"
 #include "pcp/train/prior.hpp"
 
 #include <pybind11/functional.h>
@@ -152,21 +153,27 @@ private:
 
 py::object reconstruct(const py::handle& points_obj, const std::string& preset, const std::optional<std::string>& prior_path,
                        int threads, const py::object& progress, bool normals, std::uint64_t seed, const std::string& precision,
-                       std::optional<std::int64_t> steps, std::optional<std::int64_t> prior_steps, std::optional<int> resolution) {
+                       std::optional<std::int64_t> steps, std::optional<std::int64_t> prior_steps, std::optional<int> resolution,
+                       const py::dict& settings) {
     pcp::ReconstructOptions o = pcp::ReconstructOptions::preset(preset);
     o.fit.schedule.seed = o.self_prior.schedule.seed = seed;
-    if (steps) {
-        if (*steps < 1) throw py::value_error("steps must be >= 1");
-        o.fit.steps = *steps;
-    }
-    if (prior_steps) {
-        if (*prior_steps < 1) throw py::value_error("prior_steps must be >= 1");
-        o.prior_source = pcp::PriorSource::SelfPrior;
-        o.self_prior.max_steps = *prior_steps;
-    }
-    if (resolution) {
-        if (*resolution < 8 || *resolution > 1024) throw py::value_error("resolution must be in [8, 1024]");
-        o.resolution = *resolution;
+    // The library's settings table checks every value (pcp/settings.hpp): a bad one is a ValueError
+    // naming it, as on the command line.
+    const auto set = [&o](const std::string& name, const std::string& value) {
+        try {
+            pcp::set_option(o, name, value);
+        } catch (const pcp::Error& e) {
+            throw py::value_error(e.what());
+        }
+    };
+    if (prior_steps && *prior_steps < 1) throw py::value_error("prior_steps must be >= 1");
+    if (steps) set("steps", std::to_string(*steps));
+    if (prior_steps) set("prior-steps", std::to_string(*prior_steps));
+    if (resolution) set("resolution", std::to_string(*resolution));
+    for (const auto& item : settings) {
+        const std::string name = py::str(item.first);
+        const py::handle v = item.second;
+        set(name, py::isinstance<py::bool_>(v) ? (v.cast<bool>() ? "on" : "off") : std::string(py::str(v)));
     }
     const pcp::Points points = to_points(points_obj, "points");
     pcp::check_point_cloud(points, "points", pcp::min_points_for(o.fit.sampling));
@@ -288,15 +295,18 @@ PYBIND11_MODULE(pcp, m) {
     m.def("reconstruct", &reconstruct, py::arg("points"), py::kw_only(), py::arg("preset") = "default",
           py::arg("prior") = py::none(), py::arg("threads") = 0, py::arg("progress") = py::none(), py::arg("normals") = false,
           py::arg("seed") = 1, py::arg("precision") = "auto", py::arg("steps") = py::none(), py::arg("prior_steps") = py::none(),
-          py::arg("resolution") = py::none(),
+          py::arg("resolution") = py::none(), py::arg("settings") = py::dict(),
           R"(Reconstruct a mesh from an unoriented point cloud.
 
 points: (N, 3) float32 or float64 array, C-contiguous, finite.
-preset: "default", "fast" or "paper". prior: path of a prior file from pcp_train / train_prior
-(None: a self-prior is trained on the cloud). threads: 0 = all cores. progress: None or a callable
+preset: "default", "fast", "paper" or "scene". prior: path of a prior file from pcp_train /
+train_prior (None: the preset's, the built-in prior fine-tuned on the cloud, or a self-prior trained
+on it for "paper" and "scene"). threads: 0 = all cores. progress: None or a callable
 (stage: str, step: int, total: int) -> bool | None; returning False cancels (pcp.Cancelled).
 normals: also return the oriented normal of every input point. steps, prior_steps, resolution:
 override the preset's query-network steps, self-prior steps and marching-cubes resolution.
+settings: any other setting by its name, {"winding-near": 2, "smooth": True, "spreads": "0.5,1"}
+(the names and ranges of pcp_reconstruct --list-settings; a bad value raises ValueError).
 Returns (vertices (V, 3) float64, faces (F, 3) int32) in the input's frame, faces outward, and
 with normals=True a third array (N, 3) of unit normals. Ctrl-C cancels (KeyboardInterrupt).)");
     m.def(

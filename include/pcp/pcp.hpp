@@ -34,6 +34,7 @@
 #include "pcp/mesh/sign/winding_sign.hpp"
 
 #include "pcp/reconstruct.hpp"
+#include "pcp/settings.hpp"
 
 #include "pcp/eval/diagnose.hpp"
 #include "pcp/eval/eval.hpp"

@@ -72,16 +72,42 @@ struct NoisyCloudOptions {
     int thin_company = 6;
 };
 
+/// The default of every setting is the "default" preset's: ReconstructOptions{} is that preset
+/// (presets.cpp derives the others from it; pcp/settings.hpp names and checks the settings). Each
+/// value was chosen by a measurement on the shared cases (docs/NOTEBOOK.md).
 struct ReconstructOptions {
-    DenoiseOptions denoise;          ///< optional plane-projection denoising of the input (off; not in the paper)
-    /// When no prior is given. SelfPrior here (the paper's schedule); the "default" and "fast"
-    /// presets use Builtin (docs/BENCHMARKS.md, "The built-in prior as the default").
-    PriorSource prior_source = PriorSource::SelfPrior;
+    /// Denoising of the input (not in the paper): automatic (2 passes when pcp::noise_ratio says the
+    /// cloud is noisy), each point moved to its own side's mode (mode_width 2), so that the two
+    /// sides of a thin part stay apart.
+    DenoiseOptions denoise = [] {
+        DenoiseOptions d;
+        d.automatic = true;
+        d.auto_passes = 2;
+        d.mode_width = 2.0;
+        return d;
+    }();
+    /// When no prior is given: the built-in generic prior (pcp/train/builtin_prior.hpp), fine-tuned
+    /// on the input (the paper's method with a self-prior: PriorSource::SelfPrior, preset "paper").
+    PriorSource prior_source = PriorSource::Builtin;
     /// When the built-in prior is used: fine-tune the built-in prior on the input's regions for this many
     /// steps first (self_prior's regions, sampling and schedule; 0 = use it frozen).
-    std::int64_t prior_tune_steps = 0;
+    std::int64_t prior_tune_steps = 300;
     PriorTrainOptions self_prior = PriorTrainOptions::preset("fast");  ///< with PriorSource::SelfPrior
-    QueryFitOptions fit;
+    /// The query network (stage 2): width 128, 6 hidden layers (the paper: 512 x 8), 2400 steps of
+    /// 500 queries (the paper: about 100,000 of 400), a cosine schedule from 2e-3 after 100 warm-up
+    /// steps, and 10 % of the queries drawn uniformly in the box (not in the paper).
+    QueryFitOptions fit = [] {
+        QueryFitOptions q;
+        q.width = 128;
+        q.depth = 6;
+        q.queries_per_step = 500;
+        q.steps = 2400;
+        q.schedule.learning_rate = 2e-3;
+        q.schedule.lr_schedule = LrScheduleKind::Cosine;
+        q.schedule.warmup_steps = 100;
+        q.sampling.uniform_fraction = 0.1f;
+        return q;
+    }();
     int resolution = 128;            ///< marching-cubes cells along the longest axis (paper: 128 / 512)
     double margin = 0.05;            ///< added around the cloud's unit box on every side (paper: 0.05)
     double iso = 0.0;                ///< the level set extracted: F_g = iso (every mesh stage sees F_g - iso)
@@ -123,7 +149,13 @@ struct ReconstructOptions {
         g.far_levels = 3;
         return g;
     }();
-    WindingSignOptions winding_sign; ///< the sign away from the data by the winding number of the field-oriented points (not in the paper; never in the scene mode)
+    /// The sign away from the data by the winding number of the oriented points (not in the paper;
+    /// never in the scene mode).
+    WindingSignOptions winding_sign = [] {
+        WindingSignOptions w;
+        w.enabled = true;
+        return w;
+    }();
     SignRepairOptions sign_repair;   ///< flip regions whose sign the data does not support (not in the paper)
     /// Inside / outside by visibility through the cloud (pcp/cloud/visibility.hpp; its seed is
     /// fit.schedule.seed), computed once for every pass that reads them: the sign repair's label

@@ -106,6 +106,15 @@ def test_bad_options_raise():
         pcp.reconstruct(points, threads=-1, **QUICK)
     with pytest.raises(pcp.Error, match="nowhere.prior"):
         pcp.reconstruct(points, prior="/nonexistent/nowhere.prior", **QUICK)
+    # The library's settings table checks every value, as on the command line.
+    with pytest.raises(ValueError, match=r"resolution must be in \[8, 2048\] \(got '4'\)"):
+        pcp.reconstruct(points, preset="fast", resolution=4)
+    with pytest.raises(ValueError, match=r"winding-near must be in \[0, 100\] \(got '-3'\)"):
+        pcp.reconstruct(points, settings={"winding-near": -3}, **QUICK)
+    with pytest.raises(ValueError, match="unknown setting 'no-such'"):
+        pcp.reconstruct(points, settings={"no-such": 1}, **QUICK)
+    with pytest.raises(ValueError, match="sign-repair must be on or off"):
+        pcp.reconstruct(points, settings={"sign-repair": "maybe"}, **QUICK)
 
 
 def test_progress_can_cancel_and_its_exceptions_propagate(sphere_prior):

@@ -9,6 +9,7 @@
 #include "pcp/cloud/regions.hpp"
 #include "pcp/core/error.hpp"
 #include "pcp/core/rng.hpp"
+#include "pcp/settings.hpp"
 #include "pcp/train/builtin_prior.hpp"
 
 #include <algorithm>
@@ -180,20 +181,6 @@ Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<co
     return mesh;
 }
 
-/// The options both entry points check before any work.
-void check_pipeline_options(const ReconstructOptions& options) {
-    PCP_CHECK(options.max_fit_points >= 0, "reconstruct: max_fit_points must be >= 0, got " << options.max_fit_points);
-    PCP_CHECK(std::isfinite(options.thin_offset) && options.thin_offset >= 0 && options.thin_offset < 0.1,
-              "reconstruct: thin_offset must be in [0, 0.1) (unit-box units), got " << options.thin_offset);
-    PCP_CHECK(std::isfinite(options.thin_probe) && options.thin_probe >= 0 && options.thin_probe <= 4,
-              "reconstruct: thin_probe must be in [0, 4] (grid cells), got " << options.thin_probe);
-    PCP_CHECK(options.thin_company >= 1 && options.thin_company <= 8 && options.noisy.thin_company >= 1 && options.noisy.thin_company <= 8,
-              "reconstruct: thin_company and noisy.thin_company must be in [1, 8], got " << options.thin_company << " and "
-                                                                                         << options.noisy.thin_company);
-    PCP_CHECK(std::isfinite(options.thin_min_share) && options.thin_min_share >= 0 && options.thin_min_share <= 1,
-              "reconstruct: thin_min_share must be in [0, 1], got " << options.thin_min_share);
-}
-
 /// Huge inputs: the fit sees a seeded uniform subsample (ReconstructOptions::max_fit_points); every
 /// input point is checked first (the normals are given for all of them). Empty when the whole
 /// cloud is fitted.
@@ -211,7 +198,7 @@ Mesh reconstruct(const Eigen::Ref<const Points>& points, const LocalPrior* prior
     ReconstructReport& r = report ? *report : local;
     r = ReconstructReport{};
     if (normals) normals->resize(0, 3);
-    check_pipeline_options(options);
+    check_options(options);
     r.input_points = points.rows();
     const Points subsample = fit_subsample(points, "input cloud", options);
     const bool subsampled = subsample.rows() > 0;
@@ -231,7 +218,7 @@ std::vector<Mesh> reconstruct_many(const std::vector<Points>& clouds, const Loca
         if (rs.front().cancelled) one.clear();
         return one;
     }
-    check_pipeline_options(options);
+    check_options(options);
     PCP_CHECK(options.fit.ablation == QueryAblation::None,
               "reconstruct_many: several clouds are fitted with the method itself only (ablation none)");
     const int K = static_cast<int>(clouds.size());
