@@ -2,7 +2,7 @@
 // The visibility labels (pcp/cloud/visibility.hpp) of a cloud: the centres of the cells labelled
 // inside and outside, written as clouds in the input's frame (to render beside the ground truth).
 // With SDF_SAMPLES (a cloud with an "sdf" property; the ABC files are positive inside, whatever their README
-// says: docs/BENCHMARKS.md, "Sign agreement"), also
+// says: docs/NOTEBOOK.md, "Sign agreement"), also
 // prints how many samples in labelled cells have the label's sign.
 #include "pcp/cloud/prepared_cloud.hpp"
 #include "pcp/cloud/visibility.hpp"

@@ -37,7 +37,7 @@ namespace pcp {
 /// ending at doors and wall tops -- and a signed field closes every surface. In scene mode the
 /// mesh keeps only the faces the data supports (pcp::trim_unsupported_faces): the closing hull and
 /// the sheets where there is no data go, the open boundaries stay open. The preset "scene" turns it
-/// on with the settings measured for rooms (docs/BENCHMARKS.md, "Scenes").
+/// on with the settings measured for rooms (docs/NOTEBOOK.md, "Scenes").
 struct SceneOptions {
     bool enabled = false;
     double support_k = 1.0;  ///< a face stays when an input point lies within support_k x the sampling scale of its centroid
@@ -120,7 +120,7 @@ struct ReconstructOptions {
     /// support radius (surface_fit.support_k x the sampling scale) of an input point and fades to
     /// nothing at twice that radius, so a field hovering just above zero away from the data grows
     /// no sheet there. Unit-box units (the cloud's longest edge is 1); 0: off. Measured on every
-    /// shared case (docs/BENCHMARKS.md, "Thin parts kept whole").
+    /// shared case (docs/NOTEBOOK.md, "Thin parts kept whole").
     double thin_offset = 0.002;
     /// Where the field has no inside under a point of the data (a sheet sampled as one layer of
     /// points, a board thinner than the field resolves), the level near that point is raised
@@ -134,15 +134,14 @@ struct ReconstructOptions {
     /// one-layer sheets need it; more on denoised ones (NoisyCloudOptions::thin_company).
     int thin_company = 3;
     /// ... and only when at least this share of all points is raised (ThinLevel::raise_where_thin):
-    /// the built-in shape's 16 of 20,000 points added 5 handles; abc_00010074's 1.9-2.7 % lie on a
-    /// thin noisy plate the fixed offset already encloses; the shells measured 30-45 %.
+    /// the built-in shape's 16 of 20,000 points added 5 handles; on a thin noisy plate 1.9-2.7 %
+    /// qualify, and the fixed offset already encloses that plate; the shells measured 30-45 %.
     double thin_min_share = 0.03;
     /// Narrow-band settings. The blocks whose corners certify that they are far from the zero set
-    /// are interpolated, not evaluated (far_factor 2, the octree band's factor; docs/BENCHMARKS.md,
+    /// are interpolated, not evaluated (far_factor 2, the octree band's factor; docs/NOTEBOOK.md,
     /// "The dense grid from the blocks near the surface"), and the others are split down to 2-cell
-    /// cells the same way (far_levels 3; "The dense grid refined down to 2-cell cells"): in the
-    /// dense grid the fills need, and in the sparse band of larger grids ("The sparse band refined
-    /// too").
+    /// cells the same way (far_levels 3): in the dense grid the fills need, and in the sparse band
+    /// of larger grids.
     SdfGridOptions grid = [] {
         SdfGridOptions g;
         g.far_factor = 2.0;
@@ -170,7 +169,7 @@ struct ReconstructOptions {
     /// solid of closed cubes whose handles and pockets the fills above count and remove (not in
     /// the paper). The asymptotic decider separates some diagonal pairs that solid joins: on the
     /// built-in shape it put back two handles the tunnel fill had no reason to see (genus 3 for 1),
-    /// and tore abc_00010045's thin wall into 435 pieces (docs/BENCHMARKS.md, "Marching cubes on
+    /// and tore a noisy scan's thin wall into 435 pieces (docs/NOTEBOOK.md, "Marching cubes on
     /// the repairs' solid").
     MarchingCubesOptions marching_cubes{McAmbiguity::JoinInside};
     ShellCentreOptions shell_centre; ///< noisy clouds: the surface in the middle of the noise band's shell, not on its outer wall (not in the paper)
@@ -197,11 +196,11 @@ struct ReconstructOptions {
     bool fp32_grid = true;
     /// Inputs of more points than this are fitted on a uniform random subsample of this many
     /// (seeded by fit.schedule.seed, input order kept; 0 = never): the memory and time of the fit
-    /// then stop growing with the input (docs/BENCHMARKS.md, "Huge inputs"). The mesh is in the
+    /// then stop growing with the input. The mesh is in the
     /// input's frame as always, and the oriented normals are given for every input point. 200,000:
     /// the README's shape from 1M points, L2-CD x 100 against those points 0.0236 fitted on all of
     /// them (the queries' spread shrinks with the density), 0.0101 / 0.0106 / 0.0130 on 100k / 200k
-    /// / 300k of them, in 18-27 s instead of 48 s (docs/BENCHMARKS.md, "Time and memory against the
+    /// / 300k of them, in 18-27 s instead of 48 s (docs/NOTEBOOK.md, "Time and memory against the
     /// number of points with today's default"); no shared case has more than 200,000 points.
     Eigen::Index max_fit_points = 200000;
     ProgressCallback progress;       ///< forwarded to every stage ("prior", "query-net", "sdf-grid")

@@ -34,7 +34,8 @@ ReconstructOptions ReconstructOptions::preset(const std::string& name) {
         // Rooms (ReconstructOptions::scene): a self-prior, the plane projection's 3 passes, the
         // paper's 512 cells, up to a million points fitted, faces kept only where the data supports
         // them, and none of the passes that assume a closed object (they would close or flip an open
-        // room); measured on the generated rooms and the living-room fragment (docs/BENCHMARKS.md).
+        // room); measured on generated rooms and a fragment of a scanned room (docs/NOTEBOOK.md,
+        // "Scenes").
         o.prior_source = PriorSource::SelfPrior;
         o.denoise.mode_width = 0;
         o.denoise.auto_passes = 3;

@@ -164,7 +164,6 @@ Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<co
     t0 = std::chrono::steady_clock::now();
     QueryFitOptions fo = options.fit;
     fo.schedule.progress = detail::chain(fo.schedule.progress, options.progress);
-    const VisibilityLabels labels = visibility_labels(cloud, options, r);
     QueryNetFitter fitter(cloud, *prior, fo);
     if (!fitter.run()) {
         r.cancelled = true;
@@ -175,6 +174,7 @@ Mesh reconstruct_fit(const Eigen::Ref<const Points>& points, const Eigen::Ref<co
     r.fit_steps = fitter.steps_done();
     r.seconds_fit = seconds_since(t0);
 
+    const VisibilityLabels labels = visibility_labels(cloud, options, r);
     Mesh mesh = detail::mesh_stage(fitter, 0, cloud, all_points, subsampled, labels, options, r, normals);
     std::error_code ignored;
     if (!prior_ckpt.empty() && !options.keep_checkpoints) std::filesystem::remove(prior_ckpt, ignored);

@@ -221,18 +221,18 @@ std::vector<Setting> make_settings() {
     // ---- sign
     s.push_back(on_off("sign-repair", "Sign", "Flip regions of the fitted field whose sign the data does not support, on a coarse grid",
                        PCP_FIELD(sign_repair.enabled), true));
-    s.push_back(number("sign-repair-resolution", "Sign", "Cells per axis of the sign repair's coarse grid", PCP_FIELD(sign_repair.resolution),
+    s.push_back(number("sign-repair-resolution", "Sign", "Cells per axis of the sign repair's coarse grid (never more than resolution; with sign-repair)", PCP_FIELD(sign_repair.resolution),
                        "in [2, 256]", within(SignRepairOptions::kMinResolution, SignRepairOptions::kMaxResolution)));
     s.push_back(number("label-votes", "Sign",
                        "With N > 0, the sign repair also flips a region away from the data that at least N of its samples, and "
-                       "more than agree, see on the other side by visibility (0: off)",
+                       "more than agree, see on the other side by visibility (0: off; with sign-repair)",
                        PCP_FIELD(sign_repair.min_label_votes), ">= 0", at_least(0)));
     s.push_back(on_off("winding-sign", "Sign",
                        "Away from the data, the sign of the generalised winding number of the oriented input points",
                        PCP_FIELD(winding_sign.enabled), true));
     s.push_back(choice("winding-normals", "Sign",
                        "Orient the winding number's points by which side the visibility labels see outside (by the field where they "
-                       "orient fewer than half), or by the field only",
+                       "orient fewer than half), or by the field only (with winding-sign)",
                        "labels or field", [](const ReconstructOptions& o) { return o.winding_sign.orient_by_labels ? "labels" : "field"; },
                        [](ReconstructOptions& o, const std::string& v) {
                            if (v != "labels" && v != "field") return false;
@@ -278,10 +278,10 @@ std::vector<Setting> make_settings() {
                        "Keep thin parts whole: near the data, extract at iso + this (unit-box units), then move the mesh back (0: off)",
                        PCP_FIELD(thin_offset), "in [0, 0.1)", [](double x) { return x >= 0 && x < 0.1; }, true));
     s.push_back(number("thin-probe", "Grid",
-                       "Where the field has no inside this many grid cells under a point of the data, raise the thin level until it has (0: off)",
+                       "Where the field has no inside this many grid cells under a point of the data, raise the thin level until it has (0: off; needs thin-offset > 0)",
                        PCP_FIELD(thin_probe), "in [0, 4]", within(0, 4)));
     // ---- grid passes
-    s.push_back(on_off("cavity-fill", "Grid passes", "Fill the pockets of outside that the outside cannot reach (a noisy scan's hollow shells)",
+    s.push_back(on_off("cavity-fill", "Grid passes", "Fill the pockets of outside that the outside cannot reach (a noisy scan's hollow shells; it and tunnel-fill make the grid dense up to 2^24 samples)",
                        PCP_FIELD(cavity_fill.enabled), true));
     s.push_back(on_off("fine-repair", "Grid passes", "Flip thin regions of the fine grid bounded mostly by a zero crossing away from the data",
                        PCP_FIELD(fine_repair.enabled)));
@@ -304,7 +304,7 @@ std::vector<Setting> make_settings() {
                            return true;
                        }));
     // ---- surface passes
-    s.push_back(on_off("shell-centre", "Surface passes", "On a noisy cloud, the surface in the middle of the noise band's shell",
+    s.push_back(on_off("shell-centre", "Surface passes", "On a noisy cloud, the surface in the middle of the noise band's shell (needs cavity-fill: the shell is what it filled)",
                        PCP_FIELD(shell_centre.enabled)));
     s.push_back(auto_on_off("recentre", "Surface passes",
                             "Before the surface fit, move the mesh onto the middle of the points' noise (auto: on noisy clouds)",

@@ -40,7 +40,7 @@ PriorTrainOptions PriorTrainOptions::preset(const std::string& name) {
         o.schedule.learning_rate = 5e-4;
         o.schedule.lr_schedule = LrScheduleKind::Cosine;
         o.schedule.warmup_steps = 100;
-        o.sampling.uniform_fraction = 0.1f;  // see QueryFitOptions presets and docs/BENCHMARKS.md
+        o.sampling.uniform_fraction = 0.1f;  // see QueryFitOptions presets and docs/NOTEBOOK.md, "Uniform queries against floating blobs"
         return o;
     }
     if (name == "fast") {

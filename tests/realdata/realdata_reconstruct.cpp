@@ -103,7 +103,7 @@ void check_abc_00010039() {
     // queries; Poisson baseline on this scan: 1.21 / 0.611 / 0.73. Issue 5 asks for 0.95 on all
     // samples: not reached, and not reached either from noise-free points sampled on gt.ply (0.866,
     // fast preset): the near samples need the surface placed to within a few thousandths
-    // (docs/BENCHMARKS.md, "Sign agreement"). These bounds guard against regressions.
+    // (docs/NOTEBOOK.md, "Sign agreement"). These bounds guard against regressions.
     CHECK(agreement >= 0.76);
     CHECK(far_agreement >= 0.95);
     CHECK(100 * r.metrics.chamfer_l2 < 0.07);
@@ -149,7 +149,7 @@ TEST_CASE("realdata: every component of the bunny's mesh has input points near i
 
 // abc_00016513 with the default preset at 256 cells: the fairing's thin plate, with its cotangent
 // weights clipped to [0.01, 1000] x their mean and no guard, shot vertices of the barely scanned
-// bore up to 0.75 of the shape's extent away (needles; docs/BENCHMARKS.md, "Needles in the fairing
+// bore up to 0.75 of the shape's extent away (needles; docs/NOTEBOOK.md, "Needles in the fairing
 // at 256 cells"). Every vertex now lies within 0.064 of the extent of an input point (measured on
 // a 2-core Xeon; 0.067 with the fairing off, 0.084 at 128 cells); the bound leaves room for other
 // machines' rounding. Whether the needles appear depends on the fitted field: with 2400 steps on a

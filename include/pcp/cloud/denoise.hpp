@@ -1,11 +1,11 @@
 // Optional denoising of the input cloud before reconstruction (not in the paper): each point is
 // projected onto the least-squares plane of its k nearest neighbours (their centroid and the
-// eigenvector of their covariance with the smallest eigenvalue), `passes` times. On the noisy ABC
-// scans this halves the error of the reconstruction and raises its normal consistency; on the
-// clean bunny it thins the ears and costs accuracy (measured in docs/BENCHMARKS.md). So it is off
-// unless asked for: `pcp_reconstruct --denoise PASSES`, or `--denoise auto`, which denoises only a
-// cloud whose noise_ratio exceeds a threshold (ABC scans 0.39-0.45, noisy bunny 0.34, gargoyle
-// scan 0.12, bunny 0.06, fandisk 0.01).
+// eigenvector of their covariance with the smallest eigenvalue), `passes` times. On noisy scans
+// this halves the error of the reconstruction and raises its normal consistency; on a clean cloud
+// it wears down thin parts (a statue's ears) and costs accuracy (docs/NOTEBOOK.md, "Denoising noisy
+// clouds"). So it is off unless asked for: `pcp_reconstruct --denoise PASSES`, or `--denoise
+// auto`, which denoises only a cloud whose noise_ratio exceeds a threshold (noisy scans measured
+// 0.34-0.45, a raw scan of a statue 0.12, clean statues 0.06, a clean CAD part 0.01).
 #pragma once
 
 #include "pcp/core/types.hpp"
@@ -20,15 +20,14 @@ struct DenoiseOptions {
     int auto_passes = 3;          ///< (the default preset: 2, with the own-side mode; presets.cpp)
     /// The move along the plane's normal (not in the paper). 0: onto the neighbours' plane, which
     /// on a part thinner than the neighbourhood also fits the other side's points and pulls both
-    /// sides toward the middle (abc_00010074, a plate 0.056 thick: the denoised cloud 0.0047 inside
+    /// sides toward the middle (a noisy plate 0.056 thick: the denoised cloud 0.0047 inside
     /// the ground truth where the input is 0.0014 outside). > 0: to the mode of the neighbours'
     /// heights along that normal nearest to the point's own height (mean shift from the point,
     /// Gaussian kernel of width mode_width x sigma, sigma the cloud's noise: the median over its
     /// points of the heights' median absolute deviation x 1.4826), so the other side's points,
     /// a thickness away, carry little weight. The `default` preset uses 2 (src/pipeline/presets.cpp):
-    /// measured over three seeds on the 11 noisy shared cases (docs/BENCHMARKS.md, "The own-side
-    /// denoiser as the default"; an earlier pipeline, one seed each: "Denoising to the point's own
-    /// side of a thin part"). 0 here, so that the function's default is the plain projection.
+    /// measured over three seeds on the 11 noisy shared cases (docs/NOTEBOOK.md, "The own-side
+    /// denoiser as the default"). 0 here, so that the function's default is the plain projection.
     double mode_width = 0.0;
 };
 

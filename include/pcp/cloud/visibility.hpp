@@ -4,9 +4,10 @@
 //
 // The pulling loss (METHOD.md §3) is blind to the sign of the field: q - F g/|g| is the same for F
 // and -F, so a fit may settle with the inside of a shape positive under a thin negative shell, or
-// with a wall's orientation reversed (docs/BENCHMARKS.md: the bunny's two outcomes, the built-in
-// shape's plugged hole). Which side a point of space is on can be read from the cloud without
-// normals: grow every input point into a small ball, so that the sampled surface becomes a closed
+// with a wall's orientation reversed (rounding alone can decide between a good and a bad
+// outcome; the built-in shape's hole came out plugged: docs/NOTEBOOK.md, "Visibility labels").
+// Which side a point of space is on can be read from the cloud without normals: grow every input
+// point into a small ball, so that the sampled surface becomes a closed
 // wall of voxels, and cast rays from the point. From the inside of a closed surface no ray gets out;
 // from the outside many do. Concretely:
 //
@@ -25,13 +26,13 @@
 //  4. The cells not outside then are counted again by ThroughLines (below), exactly, in
 //     line_directions fixed directions: with min_free_lines of them free of the balls, outside. A
 //     narrow bore's middle sees out along a cone of a few degrees only, which 64 random rays rarely
-//     hit (unknown, or inside when none did): abc_00010071's and abc_00011084's bores
-//     (docs/BENCHMARKS.md, "Bores labelled by their exact lines"). 12 of 1024, not 6: at 6, lines
+//     hit (unknown, or inside when none did): the bores of noisy scans whose walls the scanner
+//     barely saw. 12 of 1024, not 6: at 6, lines
 //     through the gaps of an even sampling (the balls do not close every gap at grazing angles)
 //     labelled 11 cells inside a sampled sphere outside.
 //
 // Wrong labels are possible where no ray can see a true outside (an enclosed cavity, which no
-// scanner sees either; thin walls closing small pockets: abc_00010098) and where the data has a
+// scanner sees either; thin walls closing small pockets) and where the data has a
 // gap wider than the dilation; their users therefore act on a majority of a region's labels (the
 // votes) or only near points they orient with confidence.
 #pragma once
@@ -54,13 +55,13 @@ struct VisibilityOptions {
     double min_distance = 0.5;        ///< cells at least this x sampling_scale (+ half a cell diagonal) from the data (>= 0)
     int rays = 64;                    ///< directions per cell (8..1024)
     /// Escaping fraction that makes a cell outside (0, 1]. 0.5, not less: the inside of a scan seen
-    /// through a hole in it (the bunny's open base) is otherwise labelled outside.
+    /// through a hole in it (a statue's open base) is otherwise labelled outside.
     double outside_fraction = 0.5;
     /// A cell is outside too when this many of its ray directions escape at both ends (d and -d):
     /// a line through the cell that crosses no wall, which no closed surface of the data allows.
     /// The middle of a through-hole sees out along about a sixth of the directions only (unknown by
     /// outside_fraction), but every one of them is such a line; the inside of a scan seen through
-    /// one opening (the bunny's base) has none. 0 = off.
+    /// one opening (a statue's open base) has none. 0 = off.
     int min_through_lines = 3;
     /// Step 4: line directions of the exact count (0 = off; else 8..4096) and the free lines among
     /// them that make a cell outside (1..line_directions).

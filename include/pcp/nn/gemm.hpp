@@ -9,7 +9,8 @@
 //   - Blas (built when CMake finds OpenBLAS, option PCP_BLAS=AUTO|ON|OFF): cblas_sgemm/dgemm,
 //     single-threaded OpenBLAS on each thread's slab of C under the same OpenMP split and thread
 //     count (OpenBLAS's own threaded driver mallocs on every call); OpenBLAS's packing buffers
-//     come from its own persistent pool. 1.3-1.4x Eigen's rate on AVX2 (docs/BENCHMARKS.md).
+//     come from its own persistent pool. 1.3-1.4x Eigen's rate on AVX2 (docs/NOTEBOOK.md,
+//     "Neural core").
 // The back end is a process-wide setting: set_gemm_backend(), or the environment variable
 // PCP_GEMM=eigen|blas read at the first call; by default Blas when built and its kernel suits the
 // CPU (blas_default_declined_reason()), else Eigen. Neither

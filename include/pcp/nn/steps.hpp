@@ -227,7 +227,7 @@ public:
     /// products sequential, and the step takes their query-weighted means, the whole batch's
     /// loss and gradient up to rounding. At the default preset's sizes (width 128, 500 queries)
     /// small products split over threads run at about half the SGEMM rate; parts keep each thread
-    /// on its own products (docs/BENCHMARKS.md, "The stage-2 step in batch parts").
+    /// on its own products (docs/NOTEBOOK.md, "The stage-2 step in batch parts").
     /// 0: one part per thread (Eigen::nbThreads(), as the products), at most one per kMinPartQueries queries; 1: the whole
     /// batch in `workspace` (its products split over the threads). Ablations always take one part. The rounding therefore depends on the thread count.
     int batch_parts = 0;

@@ -27,7 +27,8 @@ public:
     /// batch gets the values `field` alone gives (tests/mesh/grid/test_sample_memo.cpp). The networks
     /// nearly do: a point in the ragged last panel of a batch (fewer than the GEMM kernel's 4
     /// columns) goes through the kernel's remainder path, whose rounding can differ in the last bit;
-    /// the meshes of the cases checked came out byte-identical (docs/BENCHMARKS.md).
+    /// the meshes of the cases checked came out byte-identical (docs/NOTEBOOK.md, "Time to accuracy
+    /// with 2400 steps").
     SdfBatchFn reusing(const SdfBatchFn& field);
 
     /// Points whose value `reusing` took from the record.

@@ -261,8 +261,8 @@ double confident_vote_fraction(const SdfBatchFn& field, const KdTree& cloud, con
     const PointsF& all = cloud.points();
     const Eigen::Index n = all.rows(), m = std::min(n, max_points);
     // A uniform sample without replacement (a fixed seed: the same points every run). Not a stride
-    // over the tree's order: a scan's points come in rows, and a stride can alias with them (on
-    // abc_00016513 a stride of 42 estimated 0.40 where the count is 0.32).
+    // over the tree's order: a scan's points come in rows, and a stride can alias with them (on one
+    // scan a stride of 42 estimated 0.40 where the count is 0.32).
     std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
     std::iota(order.begin(), order.end(), Eigen::Index(0));
     Rng rng(0x9E3779B97F4A7C15ull, 7);

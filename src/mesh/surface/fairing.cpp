@@ -13,12 +13,8 @@
 
 namespace pcp {
 
-using detail::Components;
 using detail::OneRing;
 using detail::find_root;
-using detail::keep_components;
-using detail::nearest_vertex;
-using detail::vertex_normals;
 
 Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOptions& options, FairStats* stats) {
     PCP_CHECK(options.support_k > 0 && std::isfinite(options.support_k), "fairing: support_k must be > 0, got " << options.support_k);
@@ -85,9 +81,9 @@ Mesh fair_unsupported(const Mesh& unit_mesh, const KdTree& cloud, const FairOpti
     // dominate; L_ii = -sum_j L_ij) and the vertex areas A (a third of the faces'): the bi-Laplacian
     // L A^-1 L is the mesh's thin-plate energy whatever its triangles' shapes (the graph Laplacian
     // of a raw marching-cubes sphere flattened an unsupported cap twice as much). With the clip at
-    // [0.01, 1000] x the mean, abc_00016513's mesh at 256 cells grew needles up to 1.7 long: a
+    // [0.01, 1000] x the mean, a noisy scan's mesh at 256 cells grew needles up to 1.7 long: a
     // vertex tied by a clipped small weight to a row that a large one dominates is pushed far to
-    // zero that row (docs/BENCHMARKS.md, "Needles in the fairing at 256 cells").
+    // zero that row (docs/NOTEBOOK.md, "Needles in the fairing at 256 cells").
     std::vector<double> weight(ring.ids.size(), 0.0);
     Eigen::VectorXd area = Eigen::VectorXd::Zero(V);
     const auto slot = [&](std::int32_t a, std::int32_t b) {  // position of b in a's sorted one-ring

@@ -15,9 +15,7 @@ namespace pcp {
 
 using detail::Components;
 using detail::OneRing;
-using detail::find_root;
 using detail::keep_components;
-using detail::nearest_vertex;
 using detail::vertex_normals;
 
 Mesh offset_along_normals(const Mesh& mesh, double distance) {

@@ -16,7 +16,6 @@ namespace pcp {
 
 using detail::Components;
 using detail::OneRing;
-using detail::find_root;
 using detail::keep_components;
 using detail::nearest_vertex;
 using detail::vertex_normals;

@@ -44,7 +44,7 @@ TEST_CASE("bilateral smoothing: a noisy box gets flat faces and keeps its edges"
     auto reach = [](const pcp::Mesh& m) { return m.vertices.cwiseAbs().rowwise().maxCoeff().maxCoeff(); };
     const double f0 = flatness(noisy);
     // Light settings for this light noise (the defaults are chosen on the noisy ABC scans, whose
-    // noise is several cells wide: docs/BENCHMARKS.md).
+    // noise is several cells wide: docs/NOTEBOOK.md).
     pcp::BilateralOptions light;
     light.normal_iterations = light.vertex_iterations = 10;
     light.sigma_r = 0.35;

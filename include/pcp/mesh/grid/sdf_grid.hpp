@@ -65,7 +65,7 @@ struct SdfGridOptions {
     /// call). 512 (was 4096): a batch's activations then stay in the core's cache; `bench_nn`'s SDF
     /// evaluation at the default's sizes, 2 threads, 512 against 4096 points: 351,000 against
     /// 247,000 points/s natively and 270,000 against 211,000 built for AVX2 on a 2-core Emerald
-    /// Rapids (docs/BENCHMARKS.md, "Two points under a supported vertex"); the values are the same.
+    /// Rapids (docs/NOTEBOOK.md, "Two points under a supported vertex"); the values are the same.
     int batch_size = 512;
     /// Any band: the field is first evaluated at the stored blocks' corners only; a block whose 8
     /// corners have one sign and |sdf| > far_factor * its half-diagonal is far from the zero set

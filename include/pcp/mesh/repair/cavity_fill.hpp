@@ -3,7 +3,7 @@
 // The pulling loss fixes |F| near the data, never the sign of a region (sign_repair.hpp). On noisy
 // scans the fitted field is often a hollow shell: negative in a layer as thick as the noise band,
 // positive again in the interior, so marching cubes meshes a second, inward-facing sheet under the
-// surface (abc_00010009: 343k faces, 204k after the fill, docs/BENCHMARKS.md).
+// surface (a noisy scan: 343k faces, 204k after the fill; docs/NOTEBOOK.md, "Cavity fill").
 // Both sheets lie within the noise of the data, so the repairs that look for zero crossings away from
 // the data cannot see the inner one. A scanner, though, cannot see a closed cavity: a positive region
 // that the outside cannot reach is not outside. On the dense fine grid:
@@ -32,7 +32,7 @@
 //    shape's hole, closed by the fill before);
 //  - the outside front never enters a sample labelled inside, and the positive samples labelled
 //    inside are cavity cores (step 2): the solid between two walls of a noisy scan that the fit
-//    left hollow, perforated by tunnels too wide for delta to stop the outside (abc_00016513's
+//    left hollow, perforated by tunnels too wide for delta to stop the outside (a noisy scan of a
 //    clamp: 226 components and genus 261 without the labels, one component of genus 5 with them);
 //  - a pocket whose samples the labels call inside (at least min_label_votes, and at most 1/20 as
 //    many called outside) is filled when at most labelled_max_open of its boundary is open: its
@@ -42,8 +42,8 @@
 //    of its openings (the outside samples next to it) lie on the data, within support_k x the
 //    sampling scale of an input point (`data` given): a wall the field perforated all over, its
 //    holes where the data shows a surface (the built-in shape with `--preset fast --seed 2`: the
-//    block's interior 0.502 open, 99.8 % of its openings on the data; abc_00011084's island of
-//    wrong labels 0.59 open, none of its openings within one sampling scale).
+//    block's interior 0.502 open, 99.8 % of its openings on the data; an island of wrong labels
+//    in a noisy scan 0.59 open, none of its openings within one sampling scale).
 // Needs every sample of the lattice (a dense grid); otherwise, and above max_samples, nothing is
 // done (stats.skipped).
 #pragma once
@@ -69,7 +69,7 @@ struct CavityFillOptions {
     /// many in outside cells) is filled up to labelled_max_open. 0 = the labels are ignored.
     int min_label_votes = 4;
     /// A pocket the labels call inside is filled when at most this fraction of its boundary is
-    /// open (max_open if that is larger). Measured on the shared cases (docs/BENCHMARKS.md,
+    /// open (max_open if that is larger). Measured on the shared cases (docs/NOTEBOOK.md,
     /// "Hollow walls filled by the visibility labels"): the pockets of the wall interiors are
     /// 0.18-0.31 open, the wrong islands of inside labels 0.5-1.0.
     double labelled_max_open = 0.5;

@@ -20,8 +20,8 @@
 // value (at most reach in all), which puts both probes inside. A point inside the solid is never
 // raised, nor one where the field falls on one side, nor one with fewer than min_company of its 8
 // nearest points (itself included) such candidates: a sheet's points come in patches, the few a
-// noisy scan's field gives are scattered (the ten ABC scans: 45-2,400 candidates, most alone;
-// raising them cost abc_00010074 0.0005 of L2-CD x 100); and nothing at all when fewer than
+// noisy scan's field gives are scattered (noisy CAD scans: 45-2,400 candidates, most alone;
+// raising them cost a thin noisy plate 0.0005 of L2-CD x 100); and nothing at all when fewer than
 // min_share of all points are left (a one-layer sheet is a sizeable part of a surface; the few
 // patches of a solid's field, raised, add handles: the built-in shape's 16 points, genus 1 -> 6).
 // Each point then takes the largest level among

@@ -24,14 +24,14 @@
 // The directions are the same for every sample and many (1024), and the count is exact but for a
 // pixel: a bore 0.12 across and 0.4 long leaves about 4 % of them free from its middle, which 64
 // random rays, the rule until 2026-12-07, found only by chance (three of them were asked for). The
-// bores and slots of the ABC scans, whose walls the scanner barely saw, open (docs/BENCHMARKS.md,
-// "Lines through a bore": abc_00011084's bore, abc_00016513's slot and bolt holes, abc_00010071's
-// bore; ABC mean L2-CD x 100 0.0259 -> 0.0202 on a Zen 4). Their pieces' bared walls are mostly
+// bores, slots and bolt holes of noisy scans, whose walls the scanner barely saw, open
+// (docs/NOTEBOOK.md, "Lines through a bore": the noisy CAD scans' mean L2-CD x 100 0.0259 -> 0.0202
+// on a Zen 4). Their pieces' bared walls are mostly
 // where the scan saw nothing (5-20 % on the data), so no piece is asked for walls on the data
 // (a rule measured and rejected: at 0.5 and 0.1 of them on the data those gains are lost). Then also a cap the scan missed loses a groove near the
 // hole's rim, and a sample next to a wall may go where a line over the hole meets a gap between the
-// balls at its other end; the surface fit and the fairing take such dents back (the bunny, fandisk
-// and the scratch chairs, tables and statues of that session within their seeds' spread).
+// balls at its other end; the surface fit and the fairing take such dents back (clean statues, CAD
+// parts, chairs and tables stayed within their seeds' spread).
 //
 // Needs every sample of the lattice (a dense grid, as the tunnel fill); otherwise, and above
 // max_samples, nothing is done.

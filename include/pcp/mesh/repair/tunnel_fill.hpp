@@ -3,9 +3,10 @@
 //
 // Where the fitted field is bumpy (sharp edges, the rim of a hole, the root of a thin part), its
 // zero set can pinch through a wall in a passage a cell or two wide: marching cubes meshes a small
-// handle there, and a shape of genus 1 comes out with genus 60 (the built-in shape,
-// docs/BENCHMARKS.md). A passage that narrow is below the data's resolution as well (the default
-// grid's cell is about one sample spacing of a 20k-point object), so nothing in the input supports
+// handle there, and a shape of genus 1 comes out with genus 60 (the built-in shape;
+// docs/NOTEBOOK.md, "Tunnel fill"). A passage that narrow is below the data's resolution as well
+// (the default grid's cell is about one sample spacing of a 20k-point object), so nothing in the
+// input supports
 // it. On the dense fine grid:
 //
 //  1. The morphological closing of the inside samples (F < 0) by one cell (dilation then erosion

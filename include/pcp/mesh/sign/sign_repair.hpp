@@ -4,7 +4,7 @@
 // projection q - F(q) g/|g| is the same for F and -F, so nothing in training fixes the sign of a
 // region that no query reaches. A fitted field therefore may turn negative in a pocket outside the
 // shape (a "bulge") or positive inside it (a bubble), and the zero level set then has sheets where
-// there is no data (measured on the ABC scans and the bunny, docs/BENCHMARKS.md). The release only
+// there is no data (docs/NOTEBOOK.md, "Sign repair"). The release only
 // decides one global sign (METHOD.md §5); issue 5 asks for a more robust rule. This is ours (not
 // in the paper):
 //
@@ -49,8 +49,8 @@ struct SignRepairOptions {
     /// least `min_label_votes` of them, more than say inside) is flipped, unless it touches the box:
     /// membranes that close an open part, plugs in holes. (Positive regions labelled inside are the
     /// cavity fill's.)
-    /// 0 = off. Measured in docs/BENCHMARKS.md, "Visibility labels" (abc_00010045, seed 2: a closed
-    /// box of membranes, L2-CD x 100 0.319, becomes the open part, 0.027).
+    /// 0 = off. Measured in docs/NOTEBOOK.md, "Visibility labels" (an open part that the fit had
+    /// closed into a box of membranes: L2-CD x 100 0.319 -> 0.027).
     int min_label_votes = 4;
     /// The coarse grid's cells far from the zero set are interpolated from their corners, not
     /// evaluated (SdfGridOptions::far_factor, far_levels): only signs are used here, and those the

@@ -12,8 +12,9 @@
 //     where the field is a signed distance near the data the vote gives the outward normal). The
 //     field is the weaker witness in practice: around noisy data it fits a thin negative shell with
 //     no growth across the points, and on every shared case fewer than half of them vote
-//     confidently (docs/BENCHMARKS.md, "The winding number of points oriented by visibility"),
-//     where the labels orient 69-88 % of the points of the bunny, fandisk and the scans whose parts are thick.
+//     confidently (docs/NOTEBOOK.md, "The winding number of points oriented by visibility"),
+//     where the labels orient 69-88 % of the points of clean statues, clean CAD parts and the
+//     noisy scans whose parts are thick.
 //     When fewer than min_confident of the points vote confidently (thin parts seen from both
 //     sides, a very noisy cloud) nothing is corrected (stats.skipped).
 //     When the oriented points enclose a negative volume (the field is negative outside), every
@@ -31,8 +32,7 @@
 //     wall the scanner missed: the part around it makes its middle look half enclosed).
 //
 // The pipeline applies it to the sign repair's result, not before the repair: the repair's regions
-// are the fitted field's (src/pipeline/reconstruct.cpp; docs/BENCHMARKS.md, "The sign repair before
-// the winding number").
+// are the fitted field's (src/pipeline/reconstruct.cpp).
 #pragma once
 
 #include "pcp/cloud/kdtree.hpp"
@@ -49,10 +49,10 @@ namespace pcp {
 
 struct WindingSignOptions {
     /// Off here (apply() is the identity, nothing is computed); the default and fast presets turn
-    /// it on, the scene preset off (docs/BENCHMARKS.md, "The winding-number sign on").
+    /// it on, the scene preset off (docs/NOTEBOOK.md, "The winding-number sign on").
     bool enabled = false;
     /// pcp::reconstruct orients the points by its visibility labels when it has them (the label
-    /// vote's, on by default), else by the field (docs/BENCHMARKS.md, "The winding number of points
+    /// vote's, on by default), else by the field (docs/NOTEBOOK.md, "The winding number of points
     /// oriented by visibility").
     bool orient_by_labels = true;
     FieldNormalsOptions normals;  ///< the PCA normals and the field's vote on their orientation (field_normals.hpp)
@@ -68,11 +68,11 @@ struct WindingSignOptions {
     double near_k = 0.4;    ///< tau in units of the sampling scale (0.4: about 1.5 spacings of an even sampling)
     /// tau near the points the labels' spread oriented (0.8: about 1.8 median spacings of a scan,
     /// 3 of an even sampling): where they oriented thin parts by their neighbours, their flips
-    /// within two spacings of the data were right 80-87 % of the time, farther 97-100 %
-    /// (docs/BENCHMARKS.md, "The winding number of points oriented by visibility": a statue's ears
-    /// got handles at 0.4). At 1.0 a positive layer the field leaves under a face of a thin part
-    /// stayed, open to the air by pinholes (fandisk's genus 0 -> 2; "The sign repair before the
-    /// winding number; the reach near thin parts 0.8"); 0.6 and 0.8 keep both whole.
+    /// within two spacings of the data were right 80-87 % of the time, farther 97-100 % (a
+    /// statue's ears got handles at 0.4). At 1.0 a positive layer the field leaves under a face of
+    /// a thin part stayed, open to the air by pinholes (a CAD part with thin edges went from genus
+    /// 0 to 2; docs/NOTEBOOK.md, "The sign repair before the winding number"); 0.6 and 0.8 keep
+    /// both whole.
     double labels_near_k = 0.8;
     double margin = 0.2;    ///< the winding number decides where |w - 0.5| > margin (0..0.5)
     double opening = 3.0;   ///< Barnes-Hut: a node is one dipole when its distance > opening x its radius (>= 1)
@@ -104,7 +104,7 @@ public:
     /// fewer than min_confident of the points have a confident vote of their own. apply() then
     /// makes positive every value away from the data in a cell labelled outside, without the
     /// winding number: the middle of a bore whose wall the scanner missed, which the rest of the
-    /// part around it makes look half enclosed (w unclear, or above 0.5 + margin: on abc_00011084
+    /// part around it makes look half enclosed (w unclear, or above 0.5 + margin: on one scan
     /// 411 of 1.67 million such samples, and those w made inside lay outside the GT, 19 of 19 in
     /// a sample of 20,000 flips); and it decides near a point
     /// whose vote was weak (oriented by its neighbours) only beyond labels_near_k (0.8 sampling

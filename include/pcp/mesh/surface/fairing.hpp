@@ -11,13 +11,14 @@ namespace pcp {
 
 /// Fairing where there is no data (not in the paper), run last on the meshes of objects. Where no
 /// input point lies under the surface, its shape is the fitted field's guess: on the shared cases
-/// crumpled sheets and ragged rims at the scans' borders (abc_00010071's barely scanned bore end,
-/// the gargoyle's edges, docs/BENCHMARKS.md "Fairing where there is no data"). Every vertex with
-/// fewer than support_count input points within support_k x the sampling scale (the surface fit's
+/// crumpled sheets and ragged rims at the scans' borders (the end of a barely scanned bore, the
+/// open edges of a statue's scan; docs/NOTEBOOK.md, "Fairing where there is no data"). Every
+/// vertex with fewer than support_count input points within support_k x the sampling scale (the
+/// surface fit's
 /// support radius) is placed instead as the smoothest surface that joins the supported rest: the solution of
 /// L A^-1 L x = 0 on those vertices with the supported ones fixed, L the cotangent Laplacian and A
 /// the vertex areas (the thin-plate energy), so that the patch continues its border's position and
-/// slope. Measured against it (docs/BENCHMARKS.md): the membrane L x = 0 flattens the patches
+/// slope. Measured against it: the membrane L x = 0 flattens the patches
 /// (worse on the shared cases), and the graph Laplacian (uniform weights) depends on the
 /// triangles' shapes (a raw marching-cubes sphere's unsupported cap came out twice as flat). A
 /// patch of free vertices that touches no supported vertex has nothing to join and stays where it
@@ -28,9 +29,8 @@ struct FairOptions {
     double support_k = 0.8;  ///< a vertex is supported with support_count input points within this x the sampling scale (> 0)
     /// Input points a supported vertex needs within that radius (>= 1; an even sampling puts about
     /// 6 there). One stray point of a noisy scan's spread is not data under the surface: with 1,
-    /// the strays scattered inside abc_00010071's barely scanned bore held the field's guess of its
-    /// wall in place, a bulge into the bore on seed 2 (docs/BENCHMARKS.md, "Two points under a
-    /// supported vertex").
+    /// the strays scattered inside a barely scanned bore held the field's guess of its wall in
+    /// place, a bulge into the bore (docs/NOTEBOOK.md, "Two points under a supported vertex").
     int support_count = 2;
     /// A patch is left as it was if a vertex of its solution leaves the box of the patch's vertices
     /// and their one-rings grown by this x the box's diagonal (>= 0; an ill-conditioned solve, never

@@ -32,8 +32,8 @@ Mesh trim_unsupported_faces(const Mesh& unit_mesh, const KdTree& cloud, double r
 /// diagonal is under `min_diagonal`, removed; unused vertices dropped. pcp::reconstruct runs it
 /// last with SurfaceFitOptions::min_extent_k x the sampling scale: the fit's support filter
 /// applies that rule to the extracted mesh, but the fit and the smoothing then shrink a marching
-/// cubes octahedron around a lone inside sample beside the data to a point (abc_00016513, seed 2:
-/// an 8-face component of area 2e-32 in the output). `removed` (optional) receives the number of
+/// cubes octahedron around a lone inside sample beside the data to a point (an 8-face component
+/// of area 2e-32 came out of a noisy scan). `removed` (optional) receives the number of
 /// components removed. Throws pcp::Error for a negative or non-finite `min_diagonal` or a face
 /// index out of range.
 Mesh remove_small_components(const Mesh& mesh, double min_diagonal, std::int64_t* removed = nullptr);

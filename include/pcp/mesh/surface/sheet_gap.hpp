@@ -21,7 +21,7 @@
 // (its value < 0) for a crossed or thin solid, outside for a gap. Where s < min_gap and the midpoint
 // is inside, i moves by (min_gap - s) / 2 along n_i (its partner, finding i, the other way), by at
 // most max_move x min_gap in all: sides crossed deeper than that are not a thin part's sides laid
-// on the same data but a crumpled pocket of a noisy scan (abc_00010009), whose walls would walk.
+// on the same data but a crumpled pocket of a noisy scan, whose walls would walk.
 //
 // Parts thicker than min_gap are not touched, nor gaps between walls, nor vertices without an
 // opposite side near them.

@@ -3,8 +3,9 @@
 // On a noisy scan the fitted field is a hollow shell (cavity_fill.hpp): negative in a layer as
 // thick as the noise band, positive again behind it. The cavity fill negates the enclosed hollow,
 // so marching cubes meshes the shell's outer wall only -- the outer edge of the noise band, not its
-// middle: abc_00010009's mesh lay 0.025 outside the ground truth before the surface fit and 0.011
-// after it, against a noise band whose mean is on the surface (docs/BENCHMARKS.md). The surface fit
+// middle: a noisy scan's mesh lay 0.025 outside the ground truth before the surface fit and 0.011
+// after it, against a noise band whose mean is on the surface (docs/NOTEBOOK.md, "Shell
+// centring"). The surface fit
 // cannot undo a bias that large: the nearest input points of a vertex on the outer edge are the
 // outer half of the band.
 //
@@ -32,9 +33,8 @@ struct ShellCentreOptions {
     /// on clean clouds the outer wall lies on the data and the inner one is the field's own error.
     bool enabled = true;
     /// Walls thicker than this, in units of the cloud's sampling scale (pcp::sampling_scale: the
-    /// median distance to the 10th nearest point), are left as they are. 4 left 42 % of
-    /// abc_00010009's outer wall unmoved; 8 and 16 moved 96-98 % to the same result
-    /// (docs/BENCHMARKS.md, "Shell centring").
+    /// median distance to the 10th nearest point), are left as they are. 4 left 42 % of a noisy
+    /// scan's outer wall unmoved; 8 and 16 moved 96-98 % to the same result.
     double max_thickness_k = 8.0;
 };
 

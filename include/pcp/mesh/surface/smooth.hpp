@@ -1,6 +1,7 @@
 // Mesh smoothing for noisy clouds (not in the paper). The surface of a noisy cloud keeps the
 // noise's bumps even after the surface fit (surface_fit.hpp), because the data under each vertex is
-// itself noisy: normal consistency suffers most (docs/BENCHMARKS.md, "Smoothing noisy clouds").
+// itself noisy: normal consistency suffers most (docs/NOTEBOOK.md, "Cavity fill and smoothing of
+// noisy clouds").
 // pcp::reconstruct runs the bilateral normal filter on the meshes of the clouds it denoised.
 #pragma once
 

@@ -3,8 +3,9 @@
 // The zero level set of the fitted field carries the network's own error: ripples of a few tenths
 // of a point spacing on flat faces (the "roughness" of pcp_eval --diagnose), a small systematic
 // offset, and pieces of surface where the field crosses zero away from any input point (floating
-// components). Both are measured on the shared cases (docs/BENCHMARKS.md). This stage, run on the
-// marching-cubes mesh in the unit box, removes them using the input cloud only:
+// components). Both are measured on the shared cases (docs/NOTEBOOK.md, "The surface fit").
+// This stage, run on the marching-cubes mesh in the unit box, removes them using the input cloud
+// only:
 //
 //  1. Support filter. A vertex is supported when an input point lies within support_k x scale
 //     (scale: the median over the input points of the distance to their 10th nearest point, about
@@ -58,7 +59,7 @@ struct SurfaceFitOptions {
     /// a rounded edge is the extreme case), while the offsets to the surface are zero on average
     /// where the surface is on the data. They do not see a single vertex's step, which the
     /// tangent-plane rounds smooth, so only the last round uses them: on a noisy sphere the bias
-    /// -0.00035 -> -0.00015; on the shared cases (docs/BENCHMARKS.md, "The fit's last round against
+    /// -0.00035 -> -0.00015; on the shared cases (docs/NOTEBOOK.md, "The fit's last round against
     /// the surface") L2-CD lower on 11 of 13 with NC unchanged; two such rounds cost NC.
     int surface_rounds = 1;
     bool shrink = true;           ///< scale each move m by max(0, 1 - se^2 / m^2), se the standard error of the mean offset
@@ -71,7 +72,7 @@ struct SurfaceFitOptions {
     /// the mode inward; nearer than that (a bar about as thick as its noise) the cut would
     /// truncate each side's own noise and push the surface out, so it is left alone there.
     /// pcp::reconstruct passes the spread the recentring measured (RecentreStats::spread; noisy
-    /// clouds); 0 = off. Measured (docs/BENCHMARKS.md, "The fit without the far side of a thin
+    /// clouds); 0 = off. Measured (docs/NOTEBOOK.md, "The fit without the far side of a thin
     /// part"): k = 3 against no cut and against k = 0.
     double noise_spread = 0;      ///< the noise's spread, in the cloud's units (>= 0; 0: clean data, see far_side_clean)
     /// The far side left out on clean data too (noise_spread 0): every point nearest to a vertex
@@ -79,11 +80,11 @@ struct SurfaceFitOptions {
     /// far_side_clean_gap_k x the sampling scale behind the vertex. A part as thin as the sampling
     /// (a statue's tail or ear 1-2 spacings across) has its far side within the fit's window and
     /// its mode between the sides: the mean shift crumpled such a tail into a twisted ribbon and
-    /// roughened the ears (docs/BENCHMARKS.md, "The far side left out on clean clouds"). false: no
+    /// roughened the ears (docs/NOTEBOOK.md, "Thin limbs of clean statues"). false: no
     /// cut without a spread (the fit before).
     bool far_side_clean = true;
     /// The clean cut's cosine ([-1, 0]): only sides facing nearly opposite. With 0 (the noisy
-    /// cut's) the faces meeting at fandisk's sharp edges cut each other's points: NC -0.002..-0.004.
+    /// cut's) the faces meeting at a CAD part's sharp edges cut each other's points: NC -0.002..-0.004.
     double far_side_clean_cos = -0.8;
     /// The clean cut's gap (>= 0, sampling scales). With none, the two sides of a sheet sampled as
     /// one layer, which the move back lays on the same points, split those points between them
