@@ -211,7 +211,7 @@ Mesh mesh_stage(const QueryNetFitter& fitter, int index, const PreparedCloud& cl
     // The points the surface passes fit to: a denoised cloud's input as given (NoisyCloudOptions::fit_raw_points).
     std::unique_ptr<KdTree> raw_tree;
     if (noisy && options.noisy.fit_raw_points) raw_tree = std::make_unique<KdTree>(cloud.normalization().to_unit(all_points));
-    MeshContext c(cloud, raw_tree ? *raw_tree : cloud.tree(), labels, options, r, noisy, thin_level);
+    MeshContext c(cloud, raw_tree ? *raw_tree : cloud.tree(), labels, options, r, thin_level);
     c.grid = go.band == NarrowBand::NearPoints ? evaluate_sdf_grid(field, spec, go, cloud.unit()) : evaluate_sdf_grid(field, spec, go);
     c.dense = go.band == NarrowBand::Dense;
     r.winding_corrected = winding.corrected();

@@ -27,8 +27,8 @@ namespace pcp::detail {
 /// What every pass may read and change.
 struct MeshContext {
     MeshContext(const PreparedCloud& cloud_in, const KdTree& fit_points_in, const VisibilityLabels& labels_in,
-                const ReconstructOptions& options_in, ReconstructReport& report_in, bool noisy_in, ThinLevel& thin_level_in)
-        : cloud(cloud_in), fit_points(fit_points_in), labels(labels_in), options(options_in), report(report_in), noisy(noisy_in),
+                const ReconstructOptions& options_in, ReconstructReport& report_in, ThinLevel& thin_level_in)
+        : cloud(cloud_in), fit_points(fit_points_in), labels(labels_in), options(options_in), report(report_in),
           thin_level(thin_level_in) {}
 
     const PreparedCloud& cloud;        ///< the fitted cloud (denoised when the pipeline denoised it), unit box
@@ -36,7 +36,6 @@ struct MeshContext {
     const VisibilityLabels& labels;    ///< empty when no pass reads them
     const ReconstructOptions& options; ///< with the overlays applied (overlay_options)
     ReconstructReport& report;
-    bool noisy = false;                ///< the pipeline denoised the cloud
     ThinLevel& thin_level;
     SdfGrid grid;                      ///< the fine grid, F_g - iso - the thin level, positive outside
     bool dense = false;                ///< the grid holds every sample of its lattice
@@ -59,9 +58,9 @@ const std::vector<MeshPass>& surface_passes();
 /// Runs `passes` in order, appending one PassReport per pass to context.report.passes.
 void run_passes(const std::vector<MeshPass>& passes, MeshContext& context);
 
-/// The options as the passes of one cloud see them: a noisy cloud's settings (cavity fill's
-/// noisy_max_open, the surface fit's noisy_neighbors, the smoothing and recentring of noisy
-/// clouds, thin_company_noisy) and the scene mode's (no winding sign, no through-line carve, no
+/// The options as the passes of one cloud see them: for a noisy cloud (one the pipeline denoised)
+/// the values of ReconstructOptions::noisy written into the settings the passes read, for a
+/// clean one no shell centring, and the scene mode's (no winding sign, no through-line carve, no
 /// fairing, the grid near the points only) applied once.
 ReconstructOptions overlay_options(const ReconstructOptions& options, bool noisy);
 
