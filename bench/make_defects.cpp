@@ -68,7 +68,9 @@ int main(int argc, char** argv) {
         if (classes.empty()) selected = pcp::all_defects();
         std::stringstream list(classes);
         for (std::string c; std::getline(list, c, ',');) selected.push_back(pcp::parse_defect(c));
+        if (o.points < 100) throw pcp::Error("--points must be at least 100, got " + std::to_string(o.points));
         const pcp::Mesh mesh = builtin ? builtin_mesh() : pcp::read_mesh(mesh_path);
+        (void)pcp::make_defect_cloud(mesh, pcp::Defect::Sparse, o);  // a mesh it cannot sample is refused before any output
         std::error_code ec;
         std::filesystem::create_directories(dir, ec);
         if (ec || !std::filesystem::is_directory(dir)) throw pcp::Error(dir + ": cannot create the output directory");
