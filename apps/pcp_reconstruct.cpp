@@ -229,10 +229,10 @@ int main(int argc, char** argv) {
         } else {
             cloud = pcp::cli::load_checked_cloud(input, pcp::min_points_for(o.fit.sampling));
         }
-        check_fit_memory(input + ": fitting " + std::to_string(static_cast<long>(std::min<double>(
-                                                   cloud.points.rows(), o.max_fit_points > 0 ? o.max_fit_points : cloud.points.rows()))) + " points",
-                         o.max_fit_points > 0 ? std::min<double>(cloud.points.rows(), o.max_fit_points) : cloud.points.rows(),
-                         static_cast<double>(cloud.points.rows()), o, "fit fewer with --max-points");
+        const auto all_points = static_cast<double>(cloud.points.rows());
+        const double fit_points = o.max_fit_points > 0 ? std::min(all_points, static_cast<double>(o.max_fit_points)) : all_points;
+        check_fit_memory(input + ": fitting " + std::to_string(static_cast<long>(fit_points)) + " points", fit_points, all_points, o,
+                         "fit fewer with --max-points");
         pcp::LocalPrior prior;
         if (!prior_path.empty()) prior = pcp::load_prior(prior_path);
         const double t_read = pcp::cli::seconds_since(t_start);

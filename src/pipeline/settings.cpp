@@ -323,9 +323,9 @@ std::vector<Setting> make_settings() {
         g.get = [](const ReconstructOptions& o) { return text(o.sheet_gap.enabled ? o.sheet_gap.min_gap : 0.0); };
         g.set = [range = g.range](ReconstructOptions& o, const std::string& v) {
             const double gap = parse_number<double>("sheet-gap", range, v);
+            if (!(gap >= 0 && gap < 0.1)) refuse("sheet-gap", range, v);
             o.sheet_gap.enabled = gap > 0;
-            o.sheet_gap.min_gap = gap > 0 ? gap : o.sheet_gap.min_gap;
-            if (gap < 0) o.sheet_gap.min_gap = gap;  // refused by the check
+            if (gap > 0) o.sheet_gap.min_gap = gap;
         };
         g.valid = [](const ReconstructOptions& o) { return !o.sheet_gap.enabled || (o.sheet_gap.min_gap > 0 && o.sheet_gap.min_gap < 0.1); };
         s.push_back(g);

@@ -70,6 +70,7 @@ TEST_CASE("settings: bad values are refused naming the setting and the value, th
     CHECK_THROWS_WITH(pcp::set_option(o, "thin-offset", "0.1"), "thin-offset must be in [0, 0.1) (got '0.1')");
     CHECK_THROWS_WITH(pcp::set_option(o, "lr", "nan"), "lr must be > 0 (got 'nan')");
     CHECK_THROWS_WITH(pcp::set_option(o, "no-such-thing", "1"), Catch::Contains("unknown setting 'no-such-thing'"));
+    CHECK_THROWS_WITH(pcp::set_option(o, "sheet-gap", "-1"), "sheet-gap must be in [0, 0.1) (got '-1')");
     pcp::set_option(o, "sheet-gap", "0");
     CHECK_FALSE(o.sheet_gap.enabled);
     pcp::set_option(o, "sheet-gap", "0.003");
